@@ -1,0 +1,276 @@
+"""Numba kernels of the nonlocal assembly; plain-array signatures only.
+
+Every kernel has a slow NumPy twin in :mod:`fracfem.reference`; the tests
+compare the two.  All kernels are compiled with ``cache=True`` because every
+Snakemake job is a fresh process.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+
+@njit(cache=True, parallel=True)
+def singular_pairs(p, nodes, tp, signs, zq, wq, amat, s, out):  # pragma: no cover
+    """Local matrices of touching element pairs in relative coordinates.
+
+    p (Nv, 2) coordinates; nodes (n, d+1) local nodes of each pair, node 0
+    the common vertex (P), columns of M are signs[j] (p[nodes[j+1]] − p[P]);
+    tp (3,) local indices of the second triangle; zq (nq, d), wq (nq,) the
+    face rule; amat (d, d+1) maps local nodal values to z-coefficients;
+    out (n, d+1, d+1) receives ∫∫ (φ_a(x)−φ_a(y))(φ_b(x)−φ_b(y))|x−y|^(−2−2s)
+    without the radial factor and the constant c_{2,s}.
+    """
+    n = nodes.shape[0]
+    d = zq.shape[1]
+    nq = zq.shape[0]
+    expo = -1.0 - s
+    for k in prange(n):
+        P = nodes[k, 0]
+        M = np.empty((2, d))
+        for j in range(d):
+            q = nodes[k, j + 1]
+            M[0, j] = signs[j] * (p[q, 0] - p[P, 0])
+            M[1, j] = signs[j] * (p[q, 1] - p[P, 1])
+        # 2|T| and 2|T'|
+        a0, a1, a2 = nodes[k, 0], nodes[k, 1], nodes[k, 2]
+        det1 = abs((p[a1, 0] - p[a0, 0]) * (p[a2, 1] - p[a0, 1])
+                   - (p[a2, 0] - p[a0, 0]) * (p[a1, 1] - p[a0, 1]))
+        b0, b1, b2 = nodes[k, tp[0]], nodes[k, tp[1]], nodes[k, tp[2]]
+        det2 = abs((p[b1, 0] - p[b0, 0]) * (p[b2, 1] - p[b0, 1])
+                   - (p[b2, 0] - p[b0, 0]) * (p[b1, 1] - p[b0, 1]))
+        Z = np.zeros((d, d))
+        for i in range(nq):
+            x0 = 0.0
+            x1 = 0.0
+            for j in range(d):
+                x0 += M[0, j] * zq[i, j]
+                x1 += M[1, j] * zq[i, j]
+            kern = wq[i] * (x0 * x0 + x1 * x1) ** expo
+            for a in range(d):
+                za = kern * zq[i, a]
+                for b in range(a, d):
+                    Z[a, b] += za * zq[i, b]
+        for a in range(d):
+            for b in range(a):
+                Z[a, b] = Z[b, a]
+        scale = det1 * det2
+        nl = d + 1
+        for a in range(nl):
+            for b in range(nl):
+                acc = 0.0
+                for i in range(d):
+                    for j in range(d):
+                        acc += amat[i, a] * Z[i, j] * amat[j, b]
+                out[k, a, b] = scale * acc
+
+
+@njit(cache=True, parallel=True)
+def far_pairs(t, cent, diam, qx, qw, lam, offsets, thresholds, s, nv,
+              nchunks):  # pragma: no cover
+    """All non-touching element pairs with product Gauss rules.
+
+    The rule of a pair is chosen from its separation ratio
+    |c_T − c_T'| / max(diam_T, diam_T'): level L (points
+    offsets[L]:offsets[L+1] of qx, qw, lam) is the first with
+    ratio >= thresholds[L]; the last level is the most accurate.
+    Returns the off-diagonal part X (nchunks, nv, nv), to be summed over
+    chunks and added to its transpose, and D (nchunks, nt, nq_total): per
+    quadrature point q of T, Σ_r W_qr, from which the diagonal blocks
+    Σ_q D_q λ_a(x_q) λ_b(x_q) follow.  Chunks own private copies: no races.
+    """
+    nt = t.shape[0]
+    nlev = offsets.shape[0] - 1
+    nqt = offsets[nlev]
+    expo = -1.0 - s
+    X = np.zeros((nchunks, nv, nv))
+    D = np.zeros((nchunks, nt, nqt))
+    for c in prange(nchunks):
+        W = np.empty((64, 64))
+        V = np.empty((3, 64))
+        for T in range(c, nt, nchunks):
+            i0, i1, i2 = t[T, 0], t[T, 1], t[T, 2]
+            for T2 in range(T + 1, nt):
+                j0, j1, j2 = t[T2, 0], t[T2, 1], t[T2, 2]
+                if (i0 == j0 or i0 == j1 or i0 == j2 or i1 == j0 or i1 == j1
+                        or i1 == j2 or i2 == j0 or i2 == j1 or i2 == j2):
+                    continue
+                dx = cent[T, 0] - cent[T2, 0]
+                dy = cent[T, 1] - cent[T2, 1]
+                hm = max(diam[T], diam[T2])
+                r2 = dx * dx + dy * dy
+                lev = nlev - 1
+                for L in range(nlev - 1):
+                    if r2 >= thresholds[L] * thresholds[L] * hm * hm:
+                        lev = L
+                        break
+                q0 = offsets[lev]
+                nq = offsets[lev + 1] - q0
+                if nq == 1:
+                    w = qw[T, q0] * qw[T2, q0] * r2 ** expo
+                    D[c, T, q0] += w
+                    D[c, T2, q0] += w
+                    w *= lam[q0, 0] * lam[q0, 0]
+                    X[c, i0, j0] -= w
+                    X[c, i0, j1] -= w
+                    X[c, i0, j2] -= w
+                    X[c, i1, j0] -= w
+                    X[c, i1, j1] -= w
+                    X[c, i1, j2] -= w
+                    X[c, i2, j0] -= w
+                    X[c, i2, j1] -= w
+                    X[c, i2, j2] -= w
+                    continue
+                # W_qr = w_q w_r k(x_q − y_r)
+                for q in range(nq):
+                    xq0 = qx[T, q0 + q, 0]
+                    xq1 = qx[T, q0 + q, 1]
+                    wqq = qw[T, q0 + q]
+                    for r in range(nq):
+                        ex = xq0 - qx[T2, q0 + r, 0]
+                        ey = xq1 - qx[T2, q0 + r, 1]
+                        W[q, r] = wqq * qw[T2, q0 + r] * (ex * ex + ey * ey) ** expo
+                for q in range(nq):
+                    sq = 0.0
+                    sr = 0.0
+                    for r in range(nq):
+                        sq += W[q, r]
+                        sr += W[r, q]
+                    D[c, T, q0 + q] += sq
+                    D[c, T2, q0 + q] += sr
+                # off-diagonal block: −Σ W_qr λ_a(x_q) λ_b(y_r)
+                for a in range(3):
+                    for r in range(nq):
+                        acc = 0.0
+                        for q in range(nq):
+                            acc += lam[q0 + q, a] * W[q, r]
+                        V[a, r] = acc
+                for a in range(3):
+                    ia = t[T, a]
+                    for b in range(3):
+                        acc = 0.0
+                        for r in range(nq):
+                            acc += V[a, r] * lam[q0 + r, b]
+                        X[c, ia, t[T2, b]] -= acc
+    return X, D
+
+
+@njit(cache=True)
+def scatter_local(A, nodes, local, factor):  # pragma: no cover
+    """A[nodes[k, a], nodes[k, b]] += factor * local[k, a, b]."""
+    n, m = nodes.shape
+    for k in range(n):
+        for a in range(m):
+            ia = nodes[k, a]
+            for b in range(m):
+                A[ia, nodes[k, b]] += factor * local[k, a, b]
+
+
+@njit(cache=True, parallel=True)
+def sum_chunks_symmetric(X, A):  # pragma: no cover
+    """A += Σ_c X[c] + (Σ_c X[c])ᵀ, row-parallel."""
+    nch, n, _ = X.shape
+    for i in prange(n):
+        for j in range(n):
+            acc = 0.0
+            for c in range(nch):
+                acc += X[c, i, j] + X[c, j, i]
+            A[i, j] += acc
+
+
+@njit(cache=True, parallel=True)
+def kernel_floor(cent, s, nchunks):  # pragma: no cover
+    """Σ over unordered element pairs of |c_T − c_T'|^(−2−2s): the cost floor.
+
+    Same loop structure as :func:`far_pairs` (interleaved chunks), one kernel
+    evaluation per pair and no matrix writes.
+    """
+    nt = cent.shape[0]
+    expo = -1.0 - s
+    partial = np.zeros(nchunks)
+    for c in prange(nchunks):
+        acc = 0.0
+        for T in range(c, nt, nchunks):
+            for T2 in range(T + 1, nt):
+                dx = cent[T, 0] - cent[T2, 0]
+                dy = cent[T, 1] - cent[T2, 1]
+                acc += (dx * dx + dy * dy) ** expo
+        partial[c] = acc
+    return partial.sum()
+
+
+@njit(cache=True)
+def _cos_power_integral(phi, s2, gl_x, gl_w, gj_x, gj_w, full):  # pragma: no cover
+    """∫₀^φ cos^(2s) θ dθ for φ in [−π/2, π/2] (s2 = 2s).
+
+    Gauss–Legendre on [0, φ] where cos is bounded below; near π/2 the
+    identity ∫₀^φ = ∫₀^(π/2) − ∫₀^(π/2−φ) sin^(2s) and a Gauss–Jacobi rule
+    for the weight v^(2s) (sin ψ/ψ is analytic) keep full accuracy.
+    """
+    sgn = 1.0
+    if phi < 0.0:
+        sgn = -1.0
+        phi = -phi
+    if phi <= 0.25 * np.pi:
+        acc = 0.0
+        for i in range(gl_x.shape[0]):
+            acc += gl_w[i] * np.cos(phi * gl_x[i]) ** s2
+        return sgn * phi * acc
+    u = 0.5 * np.pi - phi
+    acc = 0.0
+    if u > 0.0:
+        for i in range(gj_x.shape[0]):
+            psi = u * gj_x[i]
+            acc += gj_w[i] * (np.sin(psi) / psi) ** s2
+        acc *= u ** (s2 + 1.0)
+    return sgn * (full - acc)
+
+
+@njit(cache=True, parallel=True)
+def exterior_kappa(x, edges, s, gl_x, gl_w, gj_x, gj_w, full, far_x, far_w):  # pragma: no cover
+    """κ(x) = ∫_{Ωᶜ} |x − y|^(−2−2s) dy for points x inside a polygon.
+
+    By the divergence theorem κ(x) = (1/2s) Σ_e ∫_e (y−x)·n_e |y−x|^(−2−2s),
+    n_e the outward normal; per edge this is sign(d)|d|^(−2s)[F(φ₂) − F(φ₁)]
+    with F(φ) = ∫₀^φ cos^(2s), d the signed distance to the edge's line and
+    φ the angles of the edge's ends seen from the foot of the perpendicular.
+    Valid for any (also non-convex) polygon; edges (m, 4) = (x0, y0, x1, y1)
+    oriented counter-clockwise around Ω.
+    """
+    n = x.shape[0]
+    m = edges.shape[0]
+    s2 = 2.0 * s
+    out = np.empty(n)
+    for i in prange(n):
+        acc = 0.0
+        for e in range(m):
+            ax = edges[e, 0] - x[i, 0]
+            ay = edges[e, 1] - x[i, 1]
+            bx = edges[e, 2] - x[i, 0]
+            by = edges[e, 3] - x[i, 1]
+            tx = edges[e, 2] - edges[e, 0]
+            ty = edges[e, 3] - edges[e, 1]
+            ln = np.sqrt(tx * tx + ty * ty)
+            tx /= ln
+            ty /= ln
+            d = ax * ty - ay * tx          # (y − x)·n, n = (ty, −tx) outward
+            if d == 0.0:
+                continue
+            ad = abs(d)
+            t1 = ax * tx + ay * ty
+            t2 = bx * tx + by * ty
+            mx = 0.5 * (ax + bx)
+            my = 0.5 * (ay + by)
+            if mx * mx + my * my > 16.0 * ln * ln:
+                # distant edge: smooth integrand, 4-point Gauss in t suffices
+                part = 0.0
+                for g in range(4):
+                    tg = t1 + (t2 - t1) * far_x[g]
+                    part += far_w[g] * (d * d + tg * tg) ** (-1.0 - s)
+                acc += d * (t2 - t1) * part
+                continue
+            f2 = _cos_power_integral(np.arctan(t2 / ad), s2, gl_x, gl_w, gj_x, gj_w, full)
+            f1 = _cos_power_integral(np.arctan(t1 / ad), s2, gl_x, gl_w, gj_x, gj_w, full)
+            acc += np.sign(d) * ad ** (-s2) * (f2 - f1)
+        out[i] = acc / s2
+    return out

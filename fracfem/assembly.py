@@ -1,0 +1,335 @@
+"""P1 Galerkin matrix of the integral fractional Laplacian on triangle meshes.
+
+a(u, v) = (c/2) ∫∫_{Ω×Ω} (u(x)−u(y))(v(x)−v(y)) |x−y|^(−2−2s) dx dy
+          + c ∫_Ω u v κ,     κ(x) = ∫_{Ωᶜ} |x−y|^(−2−2s) dy,
+
+with c = c_{2,s} and Ω the polygon of the mesh (DESIGN.md, "Bilinear form").
+Element pairs are classified once (identical / common edge / common vertex /
+separated); touching pairs use the relative-coordinate rules of
+:mod:`fracfem.quadrature`, separated pairs product Gauss rules whose order
+falls with distance, and κ is integrated with rules graded toward ∂Ω.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.special import gamma, roots_jacobi
+
+from . import _kernels
+from .exact import c2s, check_s
+from .quadrature import (coincident_rule, edge_rule, gauss01, radial_factor,
+                         triangle_rule, vertex_rule)
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "QuadratureOptions",
+    "stiffness_matrix",
+    "load_vector",
+    "energy",
+    "touching_pairs",
+    "exterior_kernel",
+    "mesh_arrays",
+]
+
+
+@dataclass(frozen=True)
+class QuadratureOptions:
+    """Quadrature orders of the assembly.
+
+    coincident, edge, vertex: Gauss points per face direction of the
+    singular rules; far_orders: triangle-rule degrees of separated pairs from
+    the farthest to the nearest class, far_thresholds: the separation ratios
+    |c_T − c_T'| / max diam at which the classes start (one fewer);
+    kappa_order: triangle-rule degree for κ away from ∂Ω; kappa_layers and
+    kappa_gauss: geometric layers and Gauss points per layer toward ∂Ω.
+    """
+
+    coincident: int = 10
+    edge: int = 6
+    vertex: int = 5
+    far_orders: tuple = (1, 2, 4, 8)
+    far_thresholds: tuple = (8.0, 4.0, 2.0)
+    kappa_order: int = 8
+    kappa_layers: int = 6
+    kappa_gauss: int = 4
+
+    def raised(self) -> "QuadratureOptions":
+        """Every order raised: for quadrature-convergence checks."""
+        return replace(
+            self,
+            coincident=2 * self.coincident,
+            edge=self.edge + 4,
+            vertex=self.vertex + 3,
+            far_orders=tuple(min(2 * o, 12) for o in self.far_orders),
+            far_thresholds=tuple(2.0 * r for r in self.far_thresholds),
+            kappa_order=min(2 * self.kappa_order, 19),
+            kappa_layers=2 * self.kappa_layers,
+            kappa_gauss=self.kappa_gauss + 4,
+        )
+
+
+def mesh_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """(p (Nv, 2) float64, t (Nt, 3) int64) from a scikit-fem mesh, checked."""
+    p = np.ascontiguousarray(np.asarray(mesh.p, dtype=np.float64).T)
+    t = np.ascontiguousarray(np.asarray(mesh.t, dtype=np.int64).T)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ValueError(f"mesh.p must have shape (2, Nv), got {mesh.p.shape}")
+    if t.ndim != 2 or t.shape[1] != 3:
+        raise ValueError(f"mesh.t must have shape (3, Nt), got {mesh.t.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError("mesh.p contains non-finite coordinates (NaN or inf)")
+    if t.min() < 0 or t.max() >= len(p):
+        raise ValueError("mesh.t refers to nodes outside mesh.p")
+    e1, e2 = p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    diam2 = np.max([np.sum(e1**2, 1), np.sum(e2**2, 1),
+                    np.sum((e2 - e1)**2, 1)], axis=0)
+    bad = np.flatnonzero(area <= 1e-14 * diam2)
+    if bad.size:
+        raise ValueError(f"mesh.t has degenerate (zero-area) triangles, e.g. "
+                         f"triangle {bad[0]} with area {area[bad[0]]:.3e}")
+    return p, t
+
+
+def touching_pairs(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ordered local nodes of common-edge (P,Q,R,R') and common-vertex
+    (P,Q,R,Q',R') element pairs, each unordered pair once."""
+    nt = len(t)
+    nv = int(t.max()) + 1
+    inc = sp.csr_matrix((np.ones(3 * nt), (np.repeat(np.arange(nt), 3), t.ravel())),
+                        shape=(nt, nv))
+    shared = sp.triu(inc @ inc.T, k=1).tocoo()
+    T1, T2, nsh = shared.row, shared.col, shared.data.astype(int)
+    a, b = t[T1], t[T2]
+    in_b = (a[:, :, None] == b[:, None, :]).any(2)     # nodes of T1 also in T2
+    in_a = (b[:, :, None] == a[:, None, :]).any(2)
+    e = nsh == 2
+    # common edge: P, Q shared (in T1's order), R the rest of T1, R' of T2
+    ae, be = a[e], b[e]
+    shared_e = ae[in_b[e]].reshape(-1, 2)
+    R = ae[~in_b[e]]
+    Rp = be[~in_a[e]]
+    edge_nodes = np.column_stack([shared_e, R, Rp])
+    v = nsh == 1
+    av, bv = a[v], b[v]
+    P = av[in_b[v]]
+    QR = av[~in_b[v]].reshape(-1, 2)
+    QRp = bv[~in_a[v]].reshape(-1, 2)
+    vertex_nodes = np.column_stack([P, QR, QRp])
+    return edge_nodes.astype(np.int64), vertex_nodes.astype(np.int64)
+
+
+# local nodal values → relative-coordinate coefficients (quadrature.py)
+_AMAT = {
+    "coincident": np.array([[-1.0, 1, 0], [-1, 0, 1]]),
+    "edge": np.array([[-1.0, 1, 0, 0], [-1, 0, 1, 0], [1, 0, 0, -1]]),
+    "vertex": np.array([[-1.0, 1, 0, 0, 0], [-1, 0, 1, 0, 0],
+                        [1, 0, 0, -1, 0], [1, 0, 0, 0, -1]]),
+}
+_SIGNS = {"coincident": np.array([1.0, 1.0]), "edge": np.array([1.0, 1, -1]),
+          "vertex": np.array([1.0, 1, -1, -1])}
+_SECOND = {"coincident": np.array([0, 1, 2]), "edge": np.array([0, 1, 3]),
+           "vertex": np.array([0, 3, 4])}
+
+
+def _singular_local(p, nodes, kind, n, s):
+    rule = {"coincident": coincident_rule, "edge": edge_rule, "vertex": vertex_rule}[kind]
+    zq, wq = rule(n)
+    out = np.empty((len(nodes), nodes.shape[1], nodes.shape[1]))
+    if len(nodes):
+        _kernels.singular_pairs(p, nodes, _SECOND[kind], _SIGNS[kind],
+                                np.ascontiguousarray(zq), wq, _AMAT[kind], s, out)
+    return out * radial_factor(kind, s)
+
+
+def _far_rules(p, t, orders):
+    """Physical points (Nt, nq, 2), weights (Nt, nq), barycentrics, offsets."""
+    pts, wts, lams, offs = [], [], [], [0]
+    area2 = np.abs(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
+    for o in orders:
+        X, W = triangle_rule(o)
+        lam = np.column_stack([1.0 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])
+        pts.append(np.einsum("qk,tkd->tqd", lam, p[t]))
+        wts.append(area2[:, None] * W[None, :])
+        lams.append(lam)
+        offs.append(offs[-1] + len(W))
+    if offs[-1] > 64 * len(orders) or max(len(l) for l in lams) > 64:
+        raise ValueError("far-field rules are limited to 64 points per triangle")
+    return (np.ascontiguousarray(np.concatenate(pts, axis=1)),
+            np.ascontiguousarray(np.concatenate(wts, axis=1)),
+            np.ascontiguousarray(np.vstack(lams)), np.array(offs, dtype=np.int64))
+
+
+def _boundary_edges(p, t):
+    """Boundary edges (m, 4) oriented counter-clockwise around the polygon."""
+    edges = np.sort(np.vstack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    third = np.concatenate([t[:, 2], t[:, 0], t[:, 1]])
+    uniq, idx, cnt = np.unique(edges, axis=0, return_index=True, return_counts=True)
+    b = cnt == 1
+    e, r = uniq[b], third[idx[b]]
+    a0, a1, c = p[e[:, 0]], p[e[:, 1]], p[r]
+    # Ω (the third vertex) must lie to the left of a0 → a1
+    left = np.cross(a1 - a0, c - a0) > 0
+    e = np.where(left[:, None], e, e[:, ::-1])
+    return np.column_stack([p[e[:, 0]], p[e[:, 1]]]), np.unique(e)
+
+
+def exterior_kernel(x: np.ndarray, edges: np.ndarray, s: float) -> np.ndarray:
+    """κ(x) = ∫_{Ωᶜ}|x−y|^(−2−2s) dy at points x (n, 2) inside the polygon
+    with counter-clockwise boundary edges (m, 4)."""
+    s = check_s(s)
+    gl_x, gl_w = gauss01(12)
+    gj_t, gj_w = roots_jacobi(12, 0.0, 2.0 * s)       # weight (1+t)^(2s)
+    gj_x = 0.5 * (gj_t + 1.0)
+    gj_w = gj_w / 2.0 ** (2.0 * s + 1.0)               # weight v^(2s) on [0, 1]
+    full = 0.5 * np.sqrt(np.pi) * gamma(s + 0.5) / gamma(s + 1.0)
+    return _kernels.exterior_kappa(np.ascontiguousarray(x, dtype=np.float64),
+                                   np.ascontiguousarray(edges, dtype=np.float64),
+                                   s, gl_x, gl_w, gj_x, gj_w, full, *gauss01(4))
+
+
+def _graded_collapsed_rule(layers, ngauss, toward_apex):
+    """Barycentric points (apex, B, C) and weights on τ̂, geometrically graded
+    in the radial variable ρ toward the apex (ρ=0) or the opposite edge."""
+    sigma = 0.25
+    breaks = np.concatenate([[0.0], sigma ** np.arange(layers, -1, -1.0)])
+    g, wg = gauss01(ngauss)
+    rho = np.concatenate([a + (b - a) * g for a, b in zip(breaks[:-1], breaks[1:])])
+    wrho = np.concatenate([(b - a) * wg for a, b in zip(breaks[:-1], breaks[1:])])
+    if not toward_apex:
+        rho, wrho = 1.0 - rho[::-1], wrho[::-1]
+    th, wth = gauss01(2 * ngauss)
+    R, TH = np.meshgrid(rho, th, indexing="ij")
+    W = np.outer(wrho, wth) * R
+    bary = np.column_stack([(1 - R).ravel(), (R * (1 - TH)).ravel(), (R * TH).ravel()])
+    return bary, W.ravel()
+
+
+def _kappa_local(p, t, boundary_nodes, edges, s, quad):
+    """∫_T φ_a φ_b κ for every element (Nt, 3, 3); zero for elements whose
+    three nodes are all on ∂Ω (they carry no free node)."""
+    nt = len(t)
+    onb = np.isin(t, boundary_nodes)
+    nb = onb.sum(1)
+    area2 = np.abs(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
+    out = np.zeros((nt, 3, 3))
+    X, W = triangle_rule(quad.kappa_order)
+    lam_int = np.column_stack([1 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])
+    groups = [(np.flatnonzero(nb == 0), None, lam_int, W)]
+    vrule = _graded_collapsed_rule(quad.kappa_layers, quad.kappa_gauss, True)
+    erule = _graded_collapsed_rule(quad.kappa_layers, quad.kappa_gauss, False)
+    for k in range(3):
+        # one boundary vertex (local k): apex there, graded toward it
+        els = np.flatnonzero((nb == 1) & onb[:, k])
+        groups.append((els, k, *vrule))
+        # two boundary vertices: apex at the free vertex k, graded toward ∂Ω
+        els = np.flatnonzero((nb == 2) & ~onb[:, k])
+        groups.append((els, k, *erule))
+    for els, apex, bary, w in groups:
+        if els.size == 0:
+            continue
+        if apex is None:
+            lam = bary
+        else:  # columns (apex, apex+1, apex+2) → local order
+            order = [(apex + j) % 3 for j in range(3)]
+            lam = np.empty_like(bary)
+            lam[:, order] = bary
+        x = np.einsum("qk,tkd->tqd", lam, p[t[els]])
+        kap = exterior_kernel(x.reshape(-1, 2), edges, s).reshape(len(els), -1)
+        wk = kap * (w[None, :] * area2[els, None])
+        out[els] = np.einsum("tq,qa,qb->tab", wk, lam, lam)
+    return out
+
+
+def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = None,
+                     timings: dict | None = None, nchunks: int | None = None) -> np.ndarray:
+    """Dense matrix a(φ_i, φ_j) over all mesh nodes.
+
+    Rows and columns of boundary nodes are NaN: homogeneous Dirichlet data
+    never needs them, and for s ≥ 1/2 the couplings of boundary nodes are
+    infinite (κ ~ dist(x, ∂Ω)^(−2s)).  Restrict to interior nodes,
+    ``A[np.ix_(free, free)]``; that block is symmetric positive definite.
+
+    Parameters
+    ----------
+    mesh : skfem.MeshTri of a polygon (any triangulated polygon)
+    s : fractional order in (0, 1)
+    quadrature : orders, default :class:`QuadratureOptions`
+    timings : if given, filled with seconds per phase
+    nchunks : parallel chunks of the far-field loop (default: numba threads)
+    """
+    s = check_s(s)
+    quad = quadrature or QuadratureOptions()
+    p, t = mesh_arrays(mesh)
+    nv = len(p)
+    c = c2s(s)
+    tim = {} if timings is None else timings
+    t0 = time.perf_counter()
+
+    edges, bnodes = _boundary_edges(p, t)
+    edge_nodes, vertex_nodes = touching_pairs(t)
+    A = np.zeros((nv, nv))
+    # identical pairs: (c/2) Σ_T I_TT; touching pairs: c Σ_{T<T'} I_TT'
+    loc = _singular_local(p, t, "coincident", quad.coincident, s)
+    _kernels.scatter_local(A, t, loc, 0.5 * c)
+    loc = _singular_local(p, edge_nodes, "edge", quad.edge, s)
+    _kernels.scatter_local(A, edge_nodes, loc, c)
+    loc = _singular_local(p, vertex_nodes, "vertex", quad.vertex, s)
+    _kernels.scatter_local(A, vertex_nodes, loc, c)
+    tim["singular"] = time.perf_counter() - t0
+
+    t1 = time.perf_counter()
+    orders = quad.far_orders
+    qx, qw, lam, offs = _far_rules(p, t, orders)
+    cent = p[t].mean(axis=1)
+    diam = np.max([np.linalg.norm(p[t[:, i]] - p[t[:, j]], axis=1)
+                   for i, j in ((0, 1), (1, 2), (2, 0))], axis=0)
+    if nchunks is None:
+        import numba
+        nchunks = numba.get_num_threads()
+    X, D = _kernels.far_pairs(t, np.ascontiguousarray(cent), diam, qx, qw, lam, offs,
+                              np.asarray(quad.far_thresholds, dtype=np.float64),
+                              s, nv, int(nchunks))
+    X *= c
+    _kernels.sum_chunks_symmetric(X, A)
+    del X
+    # diagonal blocks Σ_q D_q λ_a(x_q) λ_b(x_q)
+    E = np.einsum("tq,qa,qb->tab", D.sum(axis=0), lam, lam)
+    _kernels.scatter_local(A, t, E, c)
+    tim["far"] = time.perf_counter() - t1
+
+    t2 = time.perf_counter()
+    K = _kappa_local(p, t, bnodes, edges, s, quad)
+    _kernels.scatter_local(A, t, K, c)
+    tim["exterior"] = time.perf_counter() - t2
+
+    A[bnodes, :] = np.nan
+    A[:, bnodes] = np.nan
+    tim["total"] = time.perf_counter() - t0
+    log.info("assembled %d x %d matrix (s=%g) in %.2f s", nv, nv, s, tim["total"])
+    return A
+
+
+def load_vector(mesh, f, *, order: int = 6) -> np.ndarray:
+    """b_i = ∫ f φ_i over all nodes; f a callable of x (2, ...) or a number."""
+    p, t = mesh_arrays(mesh)
+    X, W = triangle_rule(order)
+    lam = np.column_stack([1 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])
+    x = np.einsum("qk,tkd->dtq", lam, p[t])
+    fx = np.broadcast_to(np.asarray(f(x) if callable(f) else f, dtype=float), x.shape[1:])
+    if not np.all(np.isfinite(fx)):
+        raise ValueError("f returned non-finite values at quadrature points")
+    area2 = np.abs(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
+    loc = np.einsum("tq,q,qa->ta", fx, W, lam) * area2[:, None]
+    return np.bincount(t.ravel(), weights=loc.ravel(), minlength=len(p))
+
+
+def energy(A: np.ndarray, b: np.ndarray, u: np.ndarray) -> float:
+    """E(u) = ½ a(u, u) − (f, u) on the free nodes."""
+    return 0.5 * float(u @ (A @ u)) - float(b @ u)

@@ -1,0 +1,55 @@
+"""Constants and exact solutions of the integral fractional Laplacian in 2D."""
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import gamma
+
+__all__ = [
+    "check_s",
+    "c2s",
+    "disk_solution_constant",
+    "disk_solution",
+    "disk_energy",
+    "bubble_laplacian",
+]
+
+
+def check_s(s, *, name: str = "s", low: float = 0.0, high: float = 1.0) -> float:
+    """Return s as float if low < s < high, else raise a ValueError naming it."""
+    try:
+        val = float(s)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}={s!r} must be a number in ({low}, {high})") from None
+    if not (np.isfinite(val) and low < val < high):
+        raise ValueError(f"{name}={s!r} is outside the allowed range ({low}, {high})")
+    return val
+
+
+def c2s(s: float) -> float:
+    """c_{2,s} = 2^{2s} s Γ(1+s) / (π Γ(1−s)), the constant of (−Δ)^s in 2D."""
+    s = check_s(s)
+    return 2.0 ** (2 * s) * s * gamma(1 + s) / (np.pi * gamma(1 - s))
+
+
+def disk_solution_constant(s: float) -> float:
+    """C_s with (−Δ)^s [C_s (1−|x|²)_+^s] = 1 on the unit disk."""
+    s = check_s(s)
+    return 1.0 / (2.0 ** (2 * s) * gamma(1 + s) ** 2)
+
+
+def disk_solution(x: np.ndarray, s: float) -> np.ndarray:
+    """u(x) = C_s (1−|x|²)_+^s, the solution for f = 1 on the unit disk."""
+    r2 = np.sum(np.asarray(x) ** 2, axis=0)
+    return disk_solution_constant(s) * np.clip(1.0 - r2, 0.0, None) ** s
+
+
+def disk_energy(s: float) -> float:
+    """(f, u) = a(u, u) = C_s π / (1+s) for f = 1 on the unit disk."""
+    return disk_solution_constant(s) * np.pi / (1.0 + s)
+
+
+def bubble_laplacian(x: np.ndarray, s: float) -> np.ndarray:
+    """(−Δ)^s (1−|x|²)_+^{1+s} = 2^{2s} Γ(2+s) Γ(1+s) (1 − (1+s)|x|²) in |x| < 1."""
+    s = check_s(s)
+    r2 = np.sum(np.asarray(x) ** 2, axis=0)
+    return 2.0 ** (2 * s) * gamma(2 + s) * gamma(1 + s) * (1.0 - (1.0 + s) * r2)

@@ -1,0 +1,409 @@
+"""Solvers for the discrete mixed problem (Problem 5.15).
+
+Find u (free nodes) and λ ∈ Λ_H with
+
+    A u + B λ = f,    (μ − λ)ᵀ (Bᵀu − g) ≤ 0  for all μ ∈ Λ_H,
+
+for any dense symmetric positive definite A and any constraint set of
+:mod:`fracfem.mixed` (a box {lower ≤ λ ≤ upper} with data g).  Equivalently λ
+maximises the concave dual  −½ λᵀSλ + λᵀd  over Λ_H, with the Schur complement
+S = BᵀA⁻¹B and d = BᵀA⁻¹f − g; the dual gradient is y = Bᵀu − g.
+
+* :func:`uzawa` — Algorithm A (projected gradient ascent on the dual).
+* :func:`pdas` — primal–dual active set / semismooth Newton method, an independent
+  solver that terminates when the active sets repeat.
+
+Both accept a precomputed Cholesky factor (``factor=``, from
+:func:`cholesky_factor`) so that time stepping with a fixed A factorises once.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+import scipy.linalg as la
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "ConvergenceError",
+    "cholesky_factor",
+    "schur_complement",
+    "schur_extreme_eigenvalues",
+    "uzawa",
+    "pdas",
+]
+
+DENSE_EIGEN_LIMIT = 2000  # multipliers up to which σ(S) comes from a dense eigvalsh
+
+
+class ConvergenceError(RuntimeError):
+    """An iterative solver reached ``maxiter`` without meeting its tolerance."""
+
+    def __init__(self, message, iterations, residual):
+        super().__init__(f"{message} (iterations = {iterations}, "
+                         f"residual = {residual:.3e})")
+        self.iterations = iterations
+        self.residual = residual
+
+
+# ------------------------------------------------------------------ linear algebra
+
+
+def cholesky_factor(A):
+    """Cholesky factor of the dense SPD matrix A (``scipy.linalg.cho_factor``)."""
+    A = A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
+    if A.ndim != 2 or A.shape[0] != A.shape[1]:
+        raise ValueError(f"A must be a square matrix; got shape {A.shape}")
+    try:
+        return la.cho_factor(A, lower=True)
+    except la.LinAlgError as err:
+        raise ValueError("A must be symmetric positive definite (Cholesky "
+                         f"failed: {err})") from err
+
+
+def _solve(factor, rhs):
+    """A⁻¹ rhs from the Cholesky factor."""
+    return la.cho_solve(factor, rhs, check_finite=False)
+
+
+def schur_complement(factor, B, block: int = 512) -> np.ndarray:
+    """Dense S = Bᵀ A⁻¹ B, computed in column blocks to bound memory."""
+    B = sp.csc_matrix(B)
+    m = B.shape[1]
+    S = np.empty((m, m))
+    Bt = B.T.tocsr()
+    for start in range(0, m, block):
+        cols = slice(start, min(start + block, m))
+        S[:, cols] = Bt @ _solve(factor, B[:, cols].toarray())
+    return 0.5 * (S + S.T)
+
+
+def _schur_operator(factor, B):
+    """S = Bᵀ A⁻¹ B as a LinearOperator (one Cholesky solve per product)."""
+    m = B.shape[1]
+    Bt = B.T.tocsr()
+
+    def matvec(x):
+        return Bt @ _solve(factor, B @ np.ravel(x))
+
+    return spla.LinearOperator((m, m), matvec=matvec, dtype=float)
+
+
+def schur_extreme_eigenvalues(factor, B, dense_limit: int = DENSE_EIGEN_LIMIT):
+    """Smallest and largest eigenvalue (σ_min, σ_max) of S = Bᵀ A⁻¹ B.
+
+    Up to ``dense_limit`` multipliers S is formed and ``eigvalsh`` gives both ends
+    exactly (robust even when S is nearly singular).  Beyond, Lanczos (ARPACK
+    ``eigsh`` on a LinearOperator, one Cholesky solve per product) gives σ_max
+    (``which='LA'``) and σ_min (``which='SA'``); σ_min is returned as nan if
+    ARPACK does not converge, and callers must then fall back to a safe ρ.
+    """
+    B = sp.csr_matrix(B)
+    m = B.shape[1]
+    if m <= dense_limit:
+        sigma = la.eigvalsh(schur_complement(factor, B), check_finite=False)
+        return float(sigma[0]), float(sigma[-1])
+    op = _schur_operator(factor, B)
+    v0 = np.ones(m)  # deterministic start; S has positive entries for A⁻¹ ≥ 0
+    ncv = min(m, 40)
+    sigma_max = float(spla.eigsh(op, k=1, which="LA", ncv=ncv, tol=1e-8, v0=v0,
+                                 return_eigenvectors=False)[0])
+    try:
+        sigma_min = float(spla.eigsh(op, k=1, which="SA", ncv=ncv, tol=1e-6, v0=v0,
+                                     maxiter=50 * m, return_eigenvectors=False)[0])
+    except spla.ArpackNoConvergence:
+        logger.warning("eigsh did not converge for σ_min of BᵀA⁻¹B (m = %d)", m)
+        sigma_min = float("nan")
+    return sigma_min, sigma_max
+
+
+def _optimal_rho(sigma_min, sigma_max):
+    """ρ = 2/(σ_max + σ_min) (Section 7); 1/σ_max if σ_min is unusable."""
+    if not (np.isfinite(sigma_min) and sigma_min > 1e-13 * sigma_max):
+        logger.warning("σ_min of BᵀA⁻¹B is %.3e (σ_max = %.3e): S is (nearly) "
+                       "singular; using the safe step ρ = 1/σ_max", sigma_min, sigma_max)
+        return 1.0 / sigma_max
+    return 2.0 / (sigma_max + sigma_min)
+
+
+# ------------------------------------------------------------------- input checks
+
+
+def _check_problem(A, B, f, cset, factor):
+    """Validate shapes; return (factor, B as csr, f, seconds spent factorising)."""
+    B = sp.csr_matrix(B)
+    f = np.asarray(f, dtype=float)
+    n = B.shape[0]
+    if A is not None and tuple(np.shape(A)) != (n, n):
+        raise ValueError(f"A must have shape ({n}, {n}) to match B {B.shape}; "
+                         f"got {np.shape(A)}")
+    if f.shape != (n,):
+        raise ValueError(f"f must have shape ({n},); got {f.shape}")
+    if not np.all(np.isfinite(f)):
+        raise ValueError("f must be finite")
+    if cset.n_multipliers != B.shape[1]:
+        raise ValueError(f"the constraint set has {cset.n_multipliers} multipliers but "
+                         f"B has {B.shape[1]} columns")
+    t0 = time.perf_counter()
+    if factor is None:
+        if A is None:
+            raise ValueError("give A or its Cholesky factor (factor=)")
+        factor = cholesky_factor(A)
+    elif factor[0].shape != (n, n):
+        raise ValueError(f"factor must be a Cholesky factor of shape ({n}, {n}); "
+                         f"got {factor[0].shape}")
+    return factor, B, f, time.perf_counter() - t0
+
+
+def _initial_multiplier(cset, lam0):
+    """λ⁰ ∈ Λ_H: zero by default, else the projection of ``lam0``."""
+    if lam0 is None:
+        return cset.project(np.zeros(cset.n_multipliers))
+    lam0 = np.asarray(lam0, dtype=float)
+    if lam0.shape != (cset.n_multipliers,) or not np.all(np.isfinite(lam0)):
+        raise ValueError(f"lam0 must be a finite vector of shape "
+                         f"({cset.n_multipliers},); got shape {lam0.shape}")
+    return cset.project(lam0)
+
+
+def _relative(num, scale):
+    """num / scale with 0/0 = 0 (λ ≡ 0 is a legitimate exact solution)."""
+    if num == 0.0:
+        return 0.0
+    return num / scale if scale > 0.0 else num
+
+
+# -------------------------------------------------------------------------- Uzawa
+
+
+def uzawa(A, B, f, cset, *, rho=None, tol: float = 1e-10, maxiter: int = 100_000,
+          lam0=None, factor=None, dense_limit: int = DENSE_EIGEN_LIMIT):
+    """Uzawa iteration, Algorithm A, for Problem 5.15.
+
+    u^n = A⁻¹(f − Bλ^n),  λ^{n+1} = P_Λ(λ^n + ρ(Bᵀu^n − g)).
+
+    Parameters
+    ----------
+    A : (n, n) dense SPD matrix on the free nodes (may be None if ``factor`` given)
+    B : (n, m) sparse coupling matrix, free rows
+    f : (n,) load vector f_i = ∫ f φ_i
+    cset : constraint set of :mod:`fracfem.mixed`
+    rho : float, optional
+        Step ρ; default 2/(σ_max + σ_min) of S = BᵀA⁻¹B, computed by
+        :func:`schur_extreme_eigenvalues` (dense up to ``dense_limit`` multipliers,
+        Lanczos beyond).  Converges for 0 < ρ < 2/σ_max.
+    tol : float
+        Stops when the relative change of λ, ‖λ^n − λ^{n−1}‖, and the fixed-point
+        (complementarity) residual ‖λ^n − P_Λ(λ^n + ρ(Bᵀu^n − g))‖ at the returned
+        pair are both below ``tol`` relative to max(‖λ^n‖, ρ‖BᵀA⁻¹f − g‖).
+    maxiter : int
+        Raise :class:`ConvergenceError` after this many updates of λ.
+    lam0 : (m,) array, optional
+        Start λ⁰ (projected onto Λ_H); default 0.
+    factor : optional
+        Cholesky factor of A (:func:`cholesky_factor`), reused if given.
+
+    Returns
+    -------
+    u : (n,) displacement on the free nodes
+    lam : (m,) multiplier λ_H ∈ Λ_H
+    info : dict
+        ``iterations``, ``residuals`` (history), ``residual``, ``rho``,
+        ``sigma_min``, ``sigma_max`` (None if ρ was given), ``seconds``
+        (``factorisation``, ``eigenvalues``, ``iterations``).
+    """
+    if not (isinstance(maxiter, (int, np.integer)) and maxiter >= 1):
+        raise ValueError(f"maxiter must be a positive integer; got {maxiter!r}")
+    if not (np.isfinite(tol) and tol > 0):
+        raise ValueError(f"tol must be a positive number; got {tol!r}")
+    factor, B, f, t_factor = _check_problem(A, B, f, cset, factor)
+
+    t0 = time.perf_counter()
+    sigma_min = sigma_max = None
+    if rho is None:
+        sigma_min, sigma_max = schur_extreme_eigenvalues(factor, B, dense_limit)
+        rho = _optimal_rho(sigma_min, sigma_max)
+    elif not (np.isfinite(rho) and rho > 0):
+        raise ValueError(f"rho must be a positive number; got {rho!r}")
+    t_eigen = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    u, lam, residuals = _uzawa_loop(factor, B, f, cset, float(rho), tol, maxiter,
+                                    _initial_multiplier(cset, lam0))
+    info = {
+        "iterations": len(residuals) - 1,
+        "residuals": residuals,
+        "residual": residuals[-1],
+        "rho": float(rho),
+        "sigma_min": sigma_min,
+        "sigma_max": sigma_max,
+        "seconds": {"factorisation": t_factor, "eigenvalues": t_eigen,
+                    "iterations": time.perf_counter() - t0},
+    }
+    logger.info("uzawa (%s): %d iterations, residual %.2e, rho %.3e",
+                cset.kind, info["iterations"], info["residual"], rho)
+    return u, lam, info
+
+
+def _uzawa_loop(factor, B, f, cset, rho, tol, maxiter, lam):
+    """The iteration of Algorithm A; returns (u, λ, residual history)."""
+    g = cset.g
+    Bt = B.T.tocsr()
+    lam_ref = rho * np.linalg.norm(Bt @ _solve(factor, f) - g)  # λ scale of the data
+    residuals = []
+    previous_change = np.inf
+    for n in range(maxiter + 1):
+        u = _solve(factor, f - B @ lam)  # u^n
+        step = cset.project(lam + rho * (Bt @ u - g))  # λ^{n+1}
+        scale = max(np.linalg.norm(lam), lam_ref)
+        residual = _relative(np.linalg.norm(step - lam), scale)  # at (u^n, λ^n)
+        residuals.append(residual)
+        if residual < tol and previous_change < tol:
+            return u, lam, residuals
+        if n == maxiter:
+            break
+        previous_change = _relative(np.linalg.norm(step - lam),
+                                    max(np.linalg.norm(step), lam_ref))
+        lam = step
+        if n % 1000 == 999:
+            logger.debug("uzawa: iteration %d, residual %.3e", n + 1, residual)
+    raise ConvergenceError(f"Uzawa ({cset.kind}) did not reach tol = {tol:g}",
+                           maxiter, residuals[-1])
+
+
+# ---------------------------------------------------------------------------- PDAS
+
+
+def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
+         lam0=None, factor=None, schur=None):
+    """Primal–dual active set (semismooth Newton) method for Problem 5.15.
+
+    With y = Bᵀu − g and z = λ + c∘y, each step takes the sets
+    upper = {z > upper bound}, lower = {z < lower bound} (λ fixed there at the
+    bound: no contact / slip) and the rest E (contact / stick: y_E = 0 imposed,
+    λ_E unknown), and solves the reduced saddle system through the dense Schur
+    complement S_EE = B_EᵀA⁻¹B_E.  It stops when the sets repeat, which means
+    the KKT system holds exactly; a cycle of sets is broken by halving c.
+
+    Parameters
+    ----------
+    A, B, f, cset : as in :func:`uzawa`
+    tol : float
+        The fixed-point residual ‖λ − P_Λ(λ + c∘y)‖ / max(‖λ‖, ‖c∘d‖),
+        d = BᵀA⁻¹f − g, must be below ``tol`` at the returned pair.
+    maxiter : int
+        Raise :class:`ConvergenceError` after this many active-set steps.
+    c : float or (m,) array, optional
+        Complementarity weight; default 1/diag(S), which puts λ and c∘y on the same
+        scale.  It only steers the path, not the solution.
+    lam0 : (m,) array, optional
+        Start (projected onto Λ_H); default 0.
+    factor : optional
+        Cholesky factor of A (:func:`cholesky_factor`), reused if given.
+    schur : (m, m) array, optional
+        Precomputed S = BᵀA⁻¹B (:func:`schur_complement`), reused if given.
+
+    Returns
+    -------
+    u, lam, info
+        ``info`` holds ``iterations``, ``residuals``, ``residual``, ``n_constrained``
+        (|E| per step: contact resp. stick multipliers), ``c``, ``seconds``
+        (``factorisation``, ``schur``, ``iterations``).
+    """
+    if not (isinstance(maxiter, (int, np.integer)) and maxiter >= 1):
+        raise ValueError(f"maxiter must be a positive integer; got {maxiter!r}")
+    factor, B, f, t_factor = _check_problem(A, B, f, cset, factor)
+    m = B.shape[1]
+
+    t0 = time.perf_counter()
+    S = schur_complement(factor, B) if schur is None else np.asarray(schur, float)
+    if S.shape != (m, m):
+        raise ValueError(f"schur must have shape ({m}, {m}); got {S.shape}")
+    d = B.T @ _solve(factor, f) - cset.g  # dual gradient at λ = 0
+    t_schur = time.perf_counter() - t0
+
+    c = 1.0 / np.diag(S) if c is None else np.broadcast_to(np.asarray(c, float), (m,))
+    if not np.all(np.isfinite(c) & (c > 0)):
+        raise ValueError("c must be positive and finite")
+
+    t0 = time.perf_counter()
+    lam, history, n_constrained, c = _pdas_loop(S, d, cset, c, tol, maxiter,
+                                                _initial_multiplier(cset, lam0))
+    u = _solve(factor, f - B @ lam)
+    info = {
+        "iterations": len(history),
+        "residuals": history,
+        "residual": history[-1],
+        "n_constrained": n_constrained,
+        "c": c,
+        "seconds": {"factorisation": t_factor, "schur": t_schur,
+                    "iterations": time.perf_counter() - t0},
+    }
+    logger.info("pdas (%s): %d steps, residual %.2e", cset.kind,
+                info["iterations"], info["residual"])
+    return u, lam, info
+
+
+def _classify(lam, y, c, lower, upper, fixed):
+    """State per multiplier: +1 at upper bound, −1 at lower bound, 0 in E."""
+    z = lam + c * y
+    state = np.where(z > upper, 1, np.where(z < lower, -1, 0))
+    state[fixed] = 1  # lower == upper: λ is determined, never in E
+    return state
+
+
+def _reduced_solve(S, d, state, lower, upper):
+    """λ at the bounds off E; on E solve S_EE λ_E = d_E − S_{E,R} λ_R (y_E = 0)."""
+    lam = np.where(state > 0, upper, np.where(state < 0, lower, 0.0))
+    E = np.flatnonzero(state == 0)
+    if E.size:
+        R = np.flatnonzero(state != 0)
+        rhs = d[E] - S[np.ix_(E, R)] @ lam[R]
+        lam[E] = la.cho_solve(la.cho_factor(S[np.ix_(E, E)], lower=True), rhs,
+                              check_finite=False)
+    return lam
+
+
+def _fixed_point_residual(lam, y, c, cset, scale):
+    """‖λ − P_Λ(λ + c∘y)‖ relative to ``scale`` (zero iff the KKT system holds)."""
+    return _relative(np.linalg.norm(lam - cset.project(lam + c * y)), scale)
+
+
+def _pdas_loop(S, d, cset, c, tol, maxiter, lam):
+    """Active-set steps in the multiplier space; returns (λ, history, |E|, c)."""
+    lower, upper = cset.lower, cset.upper
+    fixed = lower == upper  # e.g. F_j = 0 outside the friction subdomain
+    data_scale = np.linalg.norm(c * d)
+    seen = set()
+    history, n_constrained = [], []
+    state = None
+    for _ in range(maxiter):
+        y = d - S @ lam  # Bᵀu − g
+        new_state = _classify(lam, y, c, lower, upper, fixed)
+        residual = _fixed_point_residual(lam, y, c, cset,
+                                         max(np.linalg.norm(lam), data_scale))
+        if state is not None:
+            history.append(residual)
+            if np.array_equal(new_state, state) or residual < 0.1 * tol:
+                if residual < tol:
+                    return lam, history, n_constrained, c
+                raise ConvergenceError("PDAS: active sets repeat but the residual is "
+                                       f"above tol = {tol:g}", len(history), residual)
+        key = new_state.tobytes()
+        if key in seen:
+            c = 0.5 * c
+            logger.info("pdas: active sets cycle; halving c")
+            new_state = _classify(lam, y, c, lower, upper, fixed)
+        seen.add(key)
+        state = new_state
+        n_constrained.append(int(np.count_nonzero(state == 0)))
+        lam = _reduced_solve(S, d, state, lower, upper)
+    y = d - S @ lam
+    residual = _fixed_point_residual(lam, y, c, cset, max(np.linalg.norm(lam), data_scale))
+    raise ConvergenceError(f"PDAS ({cset.kind}) did not reach tol = {tol:g}",
+                           maxiter, residual)
