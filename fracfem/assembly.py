@@ -46,6 +46,8 @@ class QuadratureOptions:
     singular rules; far_orders: triangle-rule degrees of separated pairs from
     the farthest to the nearest class, far_thresholds: the separation ratios
     |c_T − c_T'| / max diam at which the classes start (one fewer);
+    far_orders[0] = 0 selects the Taylor-corrected centroid rule (one
+    kernel evaluation per pair, error O((h/d)³)) for the farthest class;
     kappa_order: triangle-rule degree for κ away from ∂Ω; kappa_layers and
     kappa_gauss: geometric layers and Gauss points per layer toward ∂Ω.
     """
@@ -53,7 +55,7 @@ class QuadratureOptions:
     coincident: int = 10
     edge: int = 6
     vertex: int = 5
-    far_orders: tuple = (1, 2, 4, 8)
+    far_orders: tuple = (0, 2, 4, 8)
     far_thresholds: tuple = (8.0, 4.0, 2.0)
     kappa_order: int = 8
     kappa_layers: int = 6
@@ -66,7 +68,7 @@ class QuadratureOptions:
             coincident=2 * self.coincident,
             edge=self.edge + 4,
             vertex=self.vertex + 3,
-            far_orders=tuple(min(2 * o, 12) for o in self.far_orders),
+            far_orders=tuple(min(max(2 * o, 2), 12) for o in self.far_orders),
             far_thresholds=tuple(2.0 * r for r in self.far_thresholds),
             kappa_order=min(2 * self.kappa_order, 19),
             kappa_layers=2 * self.kappa_layers,
@@ -153,7 +155,7 @@ def _far_rules(p, t, orders):
     pts, wts, lams, offs = [], [], [], [0]
     area2 = np.abs(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
     for o in orders:
-        X, W = triangle_rule(o)
+        X, W = triangle_rule(max(o, 1))  # order 0: Taylor level, centroid
         lam = np.column_stack([1.0 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])
         pts.append(np.einsum("qk,tkd->tqd", lam, p[t]))
         wts.append(area2[:, None] * W[None, :])
@@ -164,6 +166,22 @@ def _far_rules(p, t, orders):
     return (np.ascontiguousarray(np.concatenate(pts, axis=1)),
             np.ascontiguousarray(np.concatenate(wts, axis=1)),
             np.ascontiguousarray(np.vstack(lams)), np.array(offs, dtype=np.int64))
+
+
+def _element_moments(p, t):
+    """Areas, second moments (Ixx, Ixy, Iyy) about the centroid, ∇λ_a."""
+    v = p[t] - p[t].mean(axis=1, keepdims=True)
+    e1, e2 = p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    area = 0.5 * np.abs(det)
+    mom = (area / 12.0)[:, None] * np.column_stack([
+        np.sum(v[:, :, 0] ** 2, 1), np.sum(v[:, :, 0] * v[:, :, 1], 1),
+        np.sum(v[:, :, 1] ** 2, 1)])
+    # ∇λ for λ1 = ((x−p0)×e2)/det, λ2 = (e1×(x−p0))/det, λ0 = 1 − λ1 − λ2
+    g1 = np.column_stack([e2[:, 1], -e2[:, 0]]) / det[:, None]
+    g2 = np.column_stack([-e1[:, 1], e1[:, 0]]) / det[:, None]
+    grad = np.stack([-g1 - g2, g1, g2], axis=1)
+    return area, np.ascontiguousarray(mom), np.ascontiguousarray(grad)
 
 
 def _boundary_edges(p, t):
@@ -180,18 +198,32 @@ def _boundary_edges(p, t):
     return np.column_stack([p[e[:, 0]], p[e[:, 1]]]), np.unique(e)
 
 
+def _distance_to_edges(x, edges):
+    """Distance from points x (n, 2) to the nearest of the segments (m, 4)."""
+    a, b = edges[:, :2], edges[:, 2:]
+    out = np.full(len(x), np.inf)
+    for i0 in range(0, len(x), 4096):
+        xi = x[i0:i0 + 4096, None, :]
+        ab = (b - a)[None]
+        tt = np.clip(np.sum((xi - a[None]) * ab, -1) / np.sum(ab * ab, -1), 0.0, 1.0)
+        d = np.linalg.norm(xi - (a[None] + tt[..., None] * ab), axis=-1)
+        out[i0:i0 + 4096] = d.min(axis=1)
+    return out
+
+
 def exterior_kernel(x: np.ndarray, edges: np.ndarray, s: float) -> np.ndarray:
     """κ(x) = ∫_{Ωᶜ}|x−y|^(−2−2s) dy at points x (n, 2) inside the polygon
     with counter-clockwise boundary edges (m, 4)."""
     s = check_s(s)
-    gl_x, gl_w = gauss01(12)
-    gj_t, gj_w = roots_jacobi(12, 0.0, 2.0 * s)       # weight (1+t)^(2s)
+    gl_x, gl_w = gauss01(8)
+    gj_t, gj_w = roots_jacobi(8, 0.0, 2.0 * s)        # weight (1+t)^(2s)
     gj_x = 0.5 * (gj_t + 1.0)
     gj_w = gj_w / 2.0 ** (2.0 * s + 1.0)               # weight v^(2s) on [0, 1]
     full = 0.5 * np.sqrt(np.pi) * gamma(s + 0.5) / gamma(s + 1.0)
     return _kernels.exterior_kappa(np.ascontiguousarray(x, dtype=np.float64),
                                    np.ascontiguousarray(edges, dtype=np.float64),
-                                   s, gl_x, gl_w, gj_x, gj_w, full, *gauss01(4))
+                                   s, gl_x, gl_w, gj_x, gj_w, full, *gauss01(4),
+                                   gauss01(2)[0])
 
 
 def _graded_collapsed_rule(layers, ngauss, toward_apex):
@@ -219,9 +251,21 @@ def _kappa_local(p, t, boundary_nodes, edges, s, quad):
     nb = onb.sum(1)
     area2 = np.abs(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
     out = np.zeros((nt, 3, 3))
-    X, W = triangle_rule(quad.kappa_order)
-    lam_int = np.column_stack([1 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])
-    groups = [(np.flatnonzero(nb == 0), None, lam_int, W)]
+    # away from ∂Ω κ is smooth on the scale of the distance: a lower order
+    # suffices where that distance exceeds four element diameters
+    cent = p[t].mean(axis=1)
+    diam = np.max([np.linalg.norm(p[t[:, i]] - p[t[:, j]], axis=1)
+                   for i, j in ((0, 1), (1, 2), (2, 0))], axis=0)
+    far = np.zeros(nt, dtype=bool)
+    inner = np.flatnonzero(nb == 0)
+    if inner.size:
+        far[inner] = _distance_to_edges(cent[inner], edges) > 4.0 * diam[inner]
+    groups = []
+    for order, sel in ((quad.kappa_order, (nb == 0) & ~far),
+                       (max(quad.kappa_order // 2, 2), far)):
+        X, W = triangle_rule(order)
+        lam_int = np.column_stack([1 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])
+        groups.append((np.flatnonzero(sel), None, lam_int, W))
     vrule = _graded_collapsed_rule(quad.kappa_layers, quad.kappa_gauss, True)
     erule = _graded_collapsed_rule(quad.kappa_layers, quad.kappa_gauss, False)
     for k in range(3):
@@ -290,17 +334,26 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
     cent = p[t].mean(axis=1)
     diam = np.max([np.linalg.norm(p[t[:, i]] - p[t[:, j]], axis=1)
                    for i, j in ((0, 1), (1, 2), (2, 0))], axis=0)
+    area, mom, grad = _element_moments(p, t)
     if nchunks is None:
         import numba
         nchunks = numba.get_num_threads()
-    X, D = _kernels.far_pairs(t, np.ascontiguousarray(cent), diam, qx, qw, lam, offs,
+    X, D = _kernels.far_pairs(t, np.ascontiguousarray(cent), diam, area, mom, grad,
+                              qx, qw, lam, offs,
                               np.asarray(quad.far_thresholds, dtype=np.float64),
                               s, nv, int(nchunks))
     X *= c
     _kernels.sum_chunks_symmetric(X, A)
     del X
-    # diagonal blocks Σ_q D_q λ_a(x_q) λ_b(x_q)
-    E = np.einsum("tq,qa,qb->tab", D.sum(axis=0), lam, lam)
+    D = D.sum(axis=0)
+    # diagonal blocks of the Gauss levels: Σ_q D_q λ_a(x_q) λ_b(x_q)
+    E = np.einsum("tq,qa,qb->tab", D[:, 4:], lam, lam)
+    # ... and of the Taylor level: ΣC0/9 + (α·∇λ_a + α·∇λ_b)/3 + Σk|T'| ∇λ_aᵀ I_T ∇λ_b
+    if orders[0] == 0:
+        al = np.einsum("td,tad->ta", D[:, 1:3], grad) / 3.0
+        Imat = np.stack([mom[:, [0, 1]], mom[:, [1, 2]]], axis=1)
+        E += (D[:, 0, None, None] / 9.0 + al[:, :, None] + al[:, None, :]
+              + D[:, 3, None, None] * np.einsum("tad,tde,tbe->tab", grad, Imat, grad))
     _kernels.scatter_local(A, t, E, c)
     tim["far"] = time.perf_counter() - t1
 

@@ -6,7 +6,7 @@ from hypothesis import given, settings, strategies as st
 from skfem import MeshTri
 
 from fracfem.meshes import (
-    disk_graded,
+    disk_graded_rings,
     disk_uniform,
     interior_nodes,
     lshape,
@@ -85,7 +85,7 @@ def test_disk_area_converges_from_below():
     err = np.pi - np.array(areas)
     assert err[-1] < 1e-3
     np.testing.assert_allclose(err[1:] / err[:-1], 0.25, rtol=0.05)
-    g = [np.abs(signed_areas(disk_graded(n))).sum() for n in (4, 8, 16, 32)]
+    g = [np.abs(signed_areas(disk_graded_rings(n))).sum() for n in (4, 8, 16, 32)]
     assert np.all(np.diff(g) > 0) and g[-1] < np.pi and np.pi - g[-1] < 1e-3
 
 
@@ -95,12 +95,12 @@ def test_disk_uniform_rejects(bad):
         disk_uniform(bad)
 
 
-# ----------------------------------------------------------------- disk_graded
+# ----------------------------------------------------------------- disk_graded_rings
 
 @pytest.mark.parametrize("n", [2, 3, 5, 8, 17])
 @pytest.mark.parametrize("grading", [1.0, 1.5, 2.0, 3.0])
 def test_disk_graded_valid(n, grading):
-    m = disk_graded(n, grading)
+    m = disk_graded_rings(n, grading)
     validate_mesh(m.p, m.t)
     assert np.all(signed_areas(m) > 0)
     assert np.all(np.abs(boundary_radii(m) - 1) <= 1e-14)
@@ -116,14 +116,14 @@ def test_disk_graded_valid(n, grading):
 
 def test_disk_graded_angles():
     for n in (4, 8, 16, 32):
-        assert min_angle(disk_graded(n, 1.0)) > 15
-    assert min_angle(disk_graded(16, 2.0)) < 5
-    assert min_angle(disk_graded(32, 2.0)) < min_angle(disk_graded(16, 2.0))
+        assert min_angle(disk_graded_rings(n, 1.0)) > 15
+    assert min_angle(disk_graded_rings(16, 2.0)) < 5
+    assert min_angle(disk_graded_rings(32, 2.0)) < min_angle(disk_graded_rings(16, 2.0))
 
 
 def test_disk_graded_max_angle_in_layer():
     """The boundary layer is tensor-like: no flat (near 180 degree) triangles."""
-    m = disk_graded(32, 2.0)
+    m = disk_graded_rings(32, 2.0)
     p, t = m.p, m.t
     cosines = []
     for i in range(3):
@@ -134,7 +134,7 @@ def test_disk_graded_max_angle_in_layer():
 
 @pytest.mark.parametrize("grading", [1.0, 2.0, 3.0])
 def test_disk_graded_dofs_grow_like_n2(grading):
-    nv = [disk_graded(n, grading).p.shape[1] for n in (8, 16, 32, 64)]
+    nv = [disk_graded_rings(n, grading).p.shape[1] for n in (8, 16, 32, 64)]
     ratios = np.array(nv[1:]) / np.array(nv[:-1])
     assert np.all(np.abs(ratios - 4) < 0.35)
     assert abs(ratios[-1] - 4) < 0.1
@@ -142,7 +142,7 @@ def test_disk_graded_dofs_grow_like_n2(grading):
 
 def test_disk_graded_h_and_grading_one_is_quasi_uniform():
     for n in (8, 16, 32):
-        m = disk_graded(n, 1.0)
+        m = disk_graded_rings(n, 1.0)
         assert 1 / n < mesh_size(m) < 2 / n
         assert min_angle(m) > 25
 
@@ -160,7 +160,7 @@ def test_disk_graded_h_and_grading_one_is_quasi_uniform():
 ])
 def test_disk_graded_rejects(kwargs, match):
     with pytest.raises(ValueError, match=match):
-        disk_graded(**kwargs)
+        disk_graded_rings(**kwargs)
 
 
 # ------------------------------------------------------------ square / lshape
@@ -212,7 +212,7 @@ def point_triangle_distance(x, tri):
     return np.where(inside, 0.0, dist)
 
 
-@pytest.mark.parametrize("coarse", [disk_uniform(2), disk_graded(6, 2.0)],
+@pytest.mark.parametrize("coarse", [disk_uniform(2), disk_graded_rings(6, 2.0)],
                          ids=["uniform", "graded"])
 def test_refine_disk_uniform(coarse):
     p0, t0 = coarse.p.copy(), coarse.t.copy()
@@ -265,12 +265,12 @@ def test_refine_disk_rejects_bad_marked(marked):
 # -------------------------------------------------------------- validate_mesh
 
 def good():
-    m = disk_graded(4, 2.0)
+    m = disk_graded_rings(4, 2.0)
     return m.p.copy(), m.t.copy()
 
 
 def test_validate_accepts_good_meshes():
-    for m in (disk_uniform(3), disk_graded(5), square(3), lshape(1)):
+    for m in (disk_uniform(3), disk_graded_rings(5), square(3), lshape(1)):
         validate_mesh(m.p, m.t)
     p = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
     validate_mesh(p, np.array([[0], [1], [2]]))
@@ -366,7 +366,7 @@ def test_min_angle_and_mesh_size():
 @settings(max_examples=30, deadline=None)
 @given(n=st.integers(2, 12), grading=st.floats(1.0, 4.0))
 def test_random_graded_meshes_are_valid(n, grading):
-    m = disk_graded(n, grading)
+    m = disk_graded_rings(n, grading)
     validate_mesh(m.p, m.t)
     a = signed_areas(m)
     assert np.all(a > 0) and a.sum() < np.pi
@@ -379,7 +379,7 @@ def test_random_graded_meshes_are_valid(n, grading):
 @given(n=st.integers(2, 8), grading=st.floats(1.0, 3.0),
        kind=st.sampled_from(["nan", "index", "dup"]), data=st.data())
 def test_random_corruptions_rejected(n, grading, kind, data):
-    m = disk_graded(n, grading)
+    m = disk_graded_rings(n, grading)
     p, t = m.p.copy(), m.t.copy()
     if kind == "nan":
         p[data.draw(st.integers(0, 1)), data.draw(st.integers(0, p.shape[1] - 1))] = np.nan
