@@ -1,0 +1,22 @@
+# fracfem reproduction workflow: every figure and table of the paper is its own
+# target; `snakemake --cores 2` builds them all (rule all).
+from snakemake.utils import min_version
+
+min_version("8.0")
+
+configfile: "config.yaml"
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/example1.smk"
+include: "workflow/rules/report.smk"
+
+
+rule all:
+    input:
+        rules.fig01.output,
+        rules.fig02.output,
+        rules.ex1_extra_figures.output,
+        rules.rates.output,
+        rules.benchmark_assembly.output,
+    default_target: True

@@ -1,0 +1,67 @@
+# Example 1 (paper Section 8.1): (−Δ)^s u = 1 on the unit disk, exact solution.
+
+
+rule ex1_solve:
+    output:
+        row=f"{RES}/ex1/{{family}}/s{{s}}/{{tag}}.csv",
+        npz=f"{RES}/ex1/{{family}}/s{{s}}/{{tag}}.npz",
+    log:
+        f"{RES}/logs/ex1/{{family}}_s{{s}}_{{tag}}.log",
+    benchmark:
+        f"{RES}/benchmarks/ex1/{{family}}_s{{s}}_{{tag}}.tsv"
+    params:
+        grading=EX1["grading"],
+        quadrature=config["quadrature"],
+        config=config,
+    threads: 2
+    script:
+        "../scripts/ex1_solve.py"
+
+
+rule ex1_table:
+    input:
+        ex1_rows(S_EX1),
+    output:
+        table=f"{RES}/ex1/table.csv",
+    log:
+        f"{RES}/logs/ex1/table.log",
+    script:
+        "../scripts/collect_rows.py"
+
+
+rule fig01:
+    input:
+        npz=f"{RES}/ex1/graded/s{fmt(EX1['s'])}/h{fmt(EX1['figure1_h'])}.npz",
+    output:
+        png=f"{OUT}/fig01-ex1-solution-graded.png",
+        pdf=f"{OUT}/fig01-ex1-solution-graded.pdf",
+    log:
+        f"{RES}/logs/fig01.log",
+    script:
+        "../scripts/fig01.py"
+
+
+rule fig02:
+    input:
+        rows=ex1_rows([EX1["s"]]),
+    output:
+        png=f"{OUT}/fig02-ex1-error.png",
+        pdf=f"{OUT}/fig02-ex1-error.pdf",
+    params:
+        s=EX1["s"],
+    log:
+        f"{RES}/logs/fig02.log",
+    script:
+        "../scripts/fig02.py"
+
+
+rule ex1_extra_figures:
+    input:
+        table=rules.ex1_table.output.table,
+    output:
+        time=f"{OUT}/extra-ex1-error-vs-time.png",
+        orders=f"{OUT}/extra-ex1-orders.png",
+    log:
+        f"{RES}/logs/ex1_extra.log",
+    script:
+        "../scripts/ex1_extra.py"

@@ -1,0 +1,33 @@
+# Rate table (paper-figures/rates.csv, .md, .tex) and the assembly benchmark.
+
+
+rule rates:
+    input:
+        ex1=rules.ex1_table.output.table,
+    output:
+        csv=f"{OUT}/rates.csv",
+        md=f"{OUT}/rates.md",
+        tex=f"{OUT}/rates.tex",
+    params:
+        paper_s={1: EX1["s"]},
+    log:
+        f"{RES}/logs/rates.log",
+    script:
+        "../scripts/rates.py"
+
+
+rule benchmark_assembly:
+    output:
+        csv=f"{OUT}/benchmark-assembly.csv",
+        md=f"{OUT}/benchmark-assembly.md",
+    params:
+        levels=config["benchmark"]["levels"],
+        s=config["benchmark"]["s"],
+    log:
+        f"{RES}/logs/benchmark_assembly.log",
+    benchmark:
+        f"{RES}/benchmarks/benchmark_assembly.tsv"
+    threads: 2
+    shell:
+        "NUMBA_NUM_THREADS={threads} python benchmarks/bench_assembly.py "
+        "--levels {params.levels} --s {params.s} --csv {output.csv} --md {output.md} > {log} 2>&1"

@@ -1,0 +1,38 @@
+"""Extra figures of Example 1: error vs wall time; error vs DOFs for every s."""
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).parent))
+from plotstyle import MARKERS, plt, save  # noqa: E402
+
+from fracfem.report import fit_rate  # noqa: E402
+
+
+def main(table, time_png, orders_png):
+    df = pd.read_csv(table)
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    for (s, fam), g in df.groupby(["s", "family"]):
+        g = g.sort_values("dofs")
+        ax.loglog(g.t_total, g.error, marker=MARKERS[fam], label=f"s={s:g}, {fam}")
+    ax.set_xlabel("wall time per run: mesh + assembly + solve [s]")
+    ax.set_ylabel(r"$\|u-u_h\|_a$")
+    ax.set_title("Example 1: error against run time")
+    ax.legend(fontsize=8)
+    save(fig, time_png)
+
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    for (s, fam), g in df.groupby(["s", "family"]):
+        g = g.sort_values("dofs")
+        ax.loglog(g.dofs, g.error, marker=MARKERS[fam],
+                  label=f"s={s:g}, {fam}: {fit_rate(g.dofs, g.error):.3f}")
+    ax.set_xlabel("degrees of freedom")
+    ax.set_ylabel(r"$\|u-u_h\|_a$")
+    ax.set_title("Example 1 for several s (fitted rates)")
+    ax.legend(fontsize=8)
+    save(fig, orders_png)
+
+
+if __name__ == "__main__":
+    main(snakemake.input.table, snakemake.output.time, snakemake.output.orders)  # noqa: F821

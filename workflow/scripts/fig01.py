@@ -1,0 +1,26 @@
+"""Figure 1: Example 1 solution on a 2-graded mesh, as a surface."""
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from plotstyle import plt, save  # noqa: E402
+
+
+def main(npz, png, pdf):
+    d = np.load(npz)
+    p, t, u = d["p"], d["t"], d["u"]
+    fig = plt.figure(figsize=(6, 4.5))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot_trisurf(p[0], p[1], u, triangles=t.T, cmap="viridis", linewidth=0.1,
+                    edgecolor="k", antialiased=True)
+    ax.set_title(f"Example 1: $u_h$ on a 2-graded mesh (s = {float(d['s']):g}, "
+                 f"{t.shape[1]} triangles)")
+    ax.set_xlabel("$x_1$")
+    ax.set_ylabel("$x_2$")
+    save(fig, png, pdf)
+
+
+if __name__ == "__main__":
+    main(snakemake.input.npz, snakemake.output.png, snakemake.output.pdf)  # noqa: F821

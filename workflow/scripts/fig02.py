@@ -1,0 +1,30 @@
+"""Figure 2: Example 1 energy error vs DOFs, uniform and 2-graded, fitted rates."""
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).parent))
+from plotstyle import MARKERS, plt, save  # noqa: E402
+
+from fracfem.report import PAPER_RATES, fit_rate  # noqa: E402
+
+
+def main(rows, s, png, pdf):
+    df = pd.concat([pd.read_csv(f) for f in rows])
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    for fam, g in df.groupby("family"):
+        g = g.sort_values("dofs")
+        rate = fit_rate(g.dofs, g.error)
+        ax.loglog(g.dofs, g.error, marker=MARKERS[fam], label=f"{fam}: rate {rate:.3f} "
+                  f"(paper {PAPER_RATES[(1, fam)]:.3f})")
+    ax.set_xlabel("degrees of freedom")
+    ax.set_ylabel(r"$\|u-u_h\|_a$")
+    ax.set_title(f"Example 1, s = {s:g}")
+    ax.legend()
+    save(fig, png, pdf)
+
+
+if __name__ == "__main__":
+    main(list(snakemake.input.rows), snakemake.params.s, snakemake.output.png,  # noqa: F821
+         snakemake.output.pdf)  # noqa: F821
