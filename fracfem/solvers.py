@@ -124,18 +124,23 @@ def schur_spectrum(factor, B, dense_limit: int = DENSE_EIGEN_LIMIT) -> dict:
     B = sp.csr_matrix(B)
     m = B.shape[1]
     if m <= dense_limit:
-        sigma = la.eigvalsh(schur_complement(factor, B), check_finite=False)
-        sigma_max = float(sigma[-1])
-        above = sigma[sigma > KERNEL_RTOL * sigma_max]
-        return {"sigma_max": sigma_max,
-                "sigma_min": float(above[0]) if above.size else float("nan"),
-                "sigma_lowest": float(sigma[0]),
-                "kernel_dim": int(m - above.size), "method": "dense"}
+        return _dense_spectrum(schur_complement(factor, B))
     op = _schur_operator(factor, B)
     sigma_max = float(spla.eigsh(op, k=1, which="LA", ncv=min(m, 40), tol=1e-8,
                                  v0=np.ones(m), return_eigenvectors=False)[0])
     return {"sigma_max": sigma_max, "sigma_min": float("nan"),
             "sigma_lowest": float("nan"), "kernel_dim": None, "method": "lanczos"}
+
+
+def _dense_spectrum(S) -> dict:
+    """:func:`schur_spectrum` of a formed S, by ``eigvalsh``."""
+    sigma = la.eigvalsh(S, check_finite=False)
+    sigma_max = float(sigma[-1])
+    above = sigma[sigma > KERNEL_RTOL * sigma_max]
+    return {"sigma_max": sigma_max,
+            "sigma_min": float(above[0]) if above.size else float("nan"),
+            "sigma_lowest": float(sigma[0]),
+            "kernel_dim": int(S.shape[0] - above.size), "method": "dense"}
 
 
 def _optimal_rho(spectrum) -> float:
@@ -182,6 +187,14 @@ def _check_problem(A, B, f, cset, factor):
     return factor, B, f, time.perf_counter() - t0
 
 
+def _check_schur(schur, m):
+    """A precomputed S = BᵀA⁻¹B of shape (m, m)."""
+    schur = np.asarray(schur, dtype=float)
+    if schur.shape != (m, m):
+        raise ValueError(f"schur must have shape ({m}, {m}); got {schur.shape}")
+    return schur
+
+
 def _initial_multiplier(cset, lam0):
     """λ⁰ ∈ Λ_H: zero by default, else the projection of ``lam0``."""
     if lam0 is None:
@@ -204,7 +217,7 @@ def _relative(num, scale):
 
 
 def uzawa(A, B, f, cset, *, rho=None, tol: float = 1e-10, maxiter: int = 100_000,
-          lam0=None, factor=None, dense_limit: int = DENSE_EIGEN_LIMIT):
+          lam0=None, factor=None, schur=None, dense_limit: int = DENSE_EIGEN_LIMIT):
     """Uzawa iteration, Algorithm A, for Problem 5.15.
 
     u^n = A⁻¹(f − Bλ^n),  λ^{n+1} = P_Λ(λ^n + ρ(Bᵀu^n − g)).
@@ -232,6 +245,11 @@ def uzawa(A, B, f, cset, *, rho=None, tol: float = 1e-10, maxiter: int = 100_000
         Start λ⁰ (projected onto Λ_H); default 0.
     factor : optional
         Cholesky factor of A (:func:`cholesky_factor`), reused if given.
+    schur : (m, m) array, optional
+        Precomputed S = BᵀA⁻¹B (:func:`schur_complement`).  Then the same
+        iteration runs in the multiplier space, Bᵀu^n − g = BᵀA⁻¹f − g − Sλ^n
+        (m² instead of n² work per step; u is formed once at the end), and σ(S)
+        comes from it.
 
     Returns
     -------
@@ -251,16 +269,21 @@ def uzawa(A, B, f, cset, *, rho=None, tol: float = 1e-10, maxiter: int = 100_000
 
     t0 = time.perf_counter()
     spectrum = {"sigma_min": None, "sigma_max": None, "kernel_dim": None}
+    if schur is not None:
+        schur = _check_schur(schur, B.shape[1])
     if rho is None:
-        spectrum = schur_spectrum(factor, B, dense_limit)
+        spectrum = (_dense_spectrum(schur) if schur is not None
+                    else schur_spectrum(factor, B, dense_limit))
         rho = _optimal_rho(spectrum)
     elif not (np.isfinite(rho) and rho > 0):
         raise ValueError(f"rho must be a positive number; got {rho!r}")
     t_eigen = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    u, lam, residuals = _uzawa_loop(factor, B, f, cset, float(rho), tol, maxiter,
-                                    _initial_multiplier(cset, lam0))
+    dual_gradient = _dual_gradient(factor, B, f, cset.g, schur)
+    lam, residuals = _uzawa_loop(dual_gradient, cset, float(rho), tol, maxiter,
+                                 _initial_multiplier(cset, lam0))
+    u = _solve(factor, f - B @ lam)
     info = {
         "iterations": len(residuals) - 1,
         "residuals": residuals,
@@ -277,21 +300,27 @@ def uzawa(A, B, f, cset, *, rho=None, tol: float = 1e-10, maxiter: int = 100_000
     return u, lam, info
 
 
-def _uzawa_loop(factor, B, f, cset, rho, tol, maxiter, lam):
-    """The iteration of Algorithm A; returns (u, λ, residual history)."""
-    g = cset.g
+def _dual_gradient(factor, B, f, g, schur):
+    """λ ↦ Bᵀu(λ) − g with u(λ) = A⁻¹(f − Bλ): one solve, or with S, a product."""
     Bt = B.T.tocsr()
-    lam_ref = rho * np.linalg.norm(Bt @ _solve(factor, f) - g)  # λ scale of the data
+    if schur is None:
+        return lambda lam: Bt @ _solve(factor, f - B @ lam) - g  # u^n, step 1
+    d = Bt @ _solve(factor, f) - g
+    return lambda lam: d - schur @ lam
+
+
+def _uzawa_loop(dual_gradient, cset, rho, tol, maxiter, lam):
+    """The iteration of Algorithm A; returns (λ, residual history)."""
+    lam_ref = rho * np.linalg.norm(dual_gradient(np.zeros_like(lam)))  # λ scale
     residuals = []
     previous_change = np.inf
     for n in range(maxiter + 1):
-        u = _solve(factor, f - B @ lam)  # u^n
-        step = cset.project(lam + rho * (Bt @ u - g))  # λ^{n+1}
+        step = cset.project(lam + rho * dual_gradient(lam))  # λ^{n+1}, step 2
         scale = max(np.linalg.norm(lam), lam_ref)
         residual = _relative(np.linalg.norm(step - lam), scale)  # at (u^n, λ^n)
         residuals.append(residual)
         if residual < tol and previous_change < tol:
-            return u, lam, residuals
+            return lam, residuals
         if n == maxiter:
             break
         previous_change = _relative(np.linalg.norm(step - lam),
@@ -348,9 +377,7 @@ def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
     m = B.shape[1]
 
     t0 = time.perf_counter()
-    S = schur_complement(factor, B) if schur is None else np.asarray(schur, float)
-    if S.shape != (m, m):
-        raise ValueError(f"schur must have shape ({m}, {m}); got {S.shape}")
+    S = schur_complement(factor, B) if schur is None else _check_schur(schur, m)
     d = B.T @ _solve(factor, f) - cset.g  # dual gradient at λ = 0
     t_schur = time.perf_counter() - t0
 

@@ -271,8 +271,12 @@ def test_factor_reuse_and_warm_start():
     np.testing.assert_array_equal(lam, lam_f)
     _, _, warm = uzawa(None, B, f, cset, factor=factor, rho=info["rho"], lam0=lam)
     assert warm["iterations"] < 0.1 * info["iterations"]
-    u_p, lam_p, _ = pdas(None, B, f, cset, factor=factor,
-                         schur=schur_complement(factor, B))
+    S = schur_complement(factor, B)
+    u_s, lam_s, info_s = uzawa(None, B, f, cset, factor=factor, schur=S)
+    assert info_s["rho"] == pytest.approx(info["rho"], rel=1e-12)
+    assert abs(info_s["iterations"] - info["iterations"]) <= 2  # same iteration
+    np.testing.assert_allclose(u_s, u, rtol=0, atol=1e-9 * np.abs(u).max())
+    u_p, lam_p, _ = pdas(None, B, f, cset, factor=factor, schur=S)
     np.testing.assert_allclose(lam_p, lam, rtol=0, atol=1e-6 * np.abs(lam).max())
 
 
@@ -315,6 +319,8 @@ def test_solver_input_checks():
         uzawa(A, B, f, cset, rho=-1.0)
     with pytest.raises(ValueError, match="maxiter"):
         uzawa(A, B, f, cset, maxiter=0)
+    with pytest.raises(ValueError, match="schur"):
+        uzawa(A, B, f, cset, schur=np.eye(3))
     with pytest.raises(ValueError, match="lam0"):
         pdas(A, B, f, cset, lam0=np.ones(3))
     with pytest.raises(ValueError, match="Obstacle|obstacle|g"):

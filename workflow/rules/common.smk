@@ -20,7 +20,14 @@ def _as_list(value, name):
             raise ValueError(f"config {name}={value!r} is not a list of numbers") from err
     if not isinstance(value, (list, tuple)):
         value = [value]
-    return list(value)
+    # some Snakemake versions split "[0.3, 0.6]" into strings: parse each item
+    items = []
+    for item in value:
+        if isinstance(item, str):
+            item = yaml.safe_load(item.strip().strip("[]").strip()) if item.strip("[] ") else None
+        if item is not None:
+            items.append(item)
+    return items
 
 
 for _key in ("s_values",):

@@ -61,6 +61,7 @@ rule ex1_extra_figures:
     output:
         time=f"{OUT}/extra-ex1-error-vs-time.png",
         orders=f"{OUT}/extra-ex1-orders.png",
+        errors=f"{OUT}/ex1-errors.md",
     log:
         f"{RES}/logs/ex1_extra.log",
     script:

@@ -7,15 +7,23 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).parent))
 from plotstyle import MARKERS, plt, save  # noqa: E402
 
+from fracfem.io import atomic_path  # noqa: E402
 from fracfem.report import fit_rate  # noqa: E402
 
 
-def main(table, time_png, orders_png):
+def main(table, time_png, orders_png, errors_md):
     df = pd.read_csv(table)
+    cols = ["s", "family", "dofs", "error", "t_assembly", "t_solve", "t_total", "peak_mem_mb"]
+    summary = df[cols].sort_values(["s", "family", "dofs"])
+    with atomic_path(errors_md) as tmp:
+        tmp.write_text(summary.to_markdown(index=False, floatfmt=".4g") + "\n")
+    colours = {s: f"C{i}" for i, s in enumerate(sorted(df.s.unique()))}
+    dashes = {"uniform": "--", "graded": "-", "adaptive": ":"}
     fig, ax = plt.subplots(figsize=(5.5, 4))
     for (s, fam), g in df.groupby(["s", "family"]):
         g = g.sort_values("dofs")
-        ax.loglog(g.t_total, g.error, marker=MARKERS[fam], label=f"s={s:g}, {fam}")
+        ax.loglog(g.t_total, g.error, marker=MARKERS[fam], color=colours[s], ls=dashes[fam],
+                  label=f"s={s:g}, {fam}")
     ax.set_xlabel("wall time per run: mesh + assembly + solve [s]")
     ax.set_ylabel(r"$\|u-u_h\|_a$")
     ax.set_title("Example 1: error against run time")
@@ -25,7 +33,7 @@ def main(table, time_png, orders_png):
     fig, ax = plt.subplots(figsize=(5.5, 4))
     for (s, fam), g in df.groupby(["s", "family"]):
         g = g.sort_values("dofs")
-        ax.loglog(g.dofs, g.error, marker=MARKERS[fam],
+        ax.loglog(g.dofs, g.error, marker=MARKERS[fam], color=colours[s], ls=dashes[fam],
                   label=f"s={s:g}, {fam}: {fit_rate(g.dofs, g.error):.3f}")
     ax.set_xlabel("degrees of freedom")
     ax.set_ylabel(r"$\|u-u_h\|_a$")
@@ -35,4 +43,5 @@ def main(table, time_png, orders_png):
 
 
 if __name__ == "__main__":
-    main(snakemake.input.table, snakemake.output.time, snakemake.output.orders)  # noqa: F821
+    main(snakemake.input.table, snakemake.output.time, snakemake.output.orders,  # noqa: F821
+         snakemake.output.errors)  # noqa: F821

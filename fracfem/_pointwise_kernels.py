@@ -1,0 +1,218 @@
+"""Numba kernels of :mod:`fracfem.pointwise`; plain-array signatures only.
+
+The pointwise values of (−Δ)^s u_h are computed as Riesz potentials of the
+distribution −Δ(u_h 1_Ω), which for a P1 function is a sum of line measures
+on the mesh edges (see :mod:`fracfem.pointwise`).  The kernels below
+integrate, for every evaluation point x and every mesh edge e = [a, b],
+
+    single layer  S_e(x) = ∫_e G(|x − y|) dℓ(y),
+                  G(r) = (r^(−2s) − ℓ₀^(−2s)) / (2s)   (continuous as s → 0),
+    double layer  D_e(x) = d_e(x) ∫_e u(y) |x − y|^(−2−2s) dℓ(y),
+                  d_e(x) = (y − x)·n_e, n_e the outward normal of Ω,
+
+with u linear along e.  Edges near x (|x − m_e| < near·|e|, m_e the
+midpoint) are integrated after the substitution t = |d| sinh v (t the
+position along the line of e measured from the foot of the perpendicular
+from x, d the distance of x to that line): the integrand becomes analytic
+in the strip |Im v| < π/2 whatever d, so Gauss–Legendre on pieces of
+length ≤ ``piece`` in v converges geometrically, also for x very close to
+e.  Farther edges use Gauss–Legendre rules in t with fewer points as the
+distance ratio grows.
+
+All kernels are compiled with ``cache=True`` (every Snakemake job is a
+fresh process) and are parallel over evaluation points.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+
+@njit(cache=True)
+def _g_kernel(r2, s, logl0, l0p):  # pragma: no cover
+    """G(r) = (r^(−2s) − ℓ₀^(−2s))/(2s) from r², log ℓ₀ and l0p = ℓ₀^(−2s)/(2s)."""
+    return l0p * np.expm1(-s * (np.log(r2) - 2.0 * logl0))
+
+
+@njit(cache=True)
+def _single_near(x0, x1, ax, ay, bx, by, s, logl0, l0p, gx, gw, piece):  # pragma: no cover
+    """∫_[a,b] G(|x − y|) dℓ(y) by the sinh substitution (x not on [a, b])."""
+    tx = bx - ax
+    ty = by - ay
+    ln = np.sqrt(tx * tx + ty * ty)
+    tx /= ln
+    ty /= ln
+    px = ax - x0
+    py = ay - x1
+    t1 = px * tx + py * ty              # a relative to the foot point
+    t2 = t1 + ln                        # b
+    d = abs(px * ty - py * tx)          # distance of x to the line of e
+    ng = gx.shape[0]
+    acc = 0.0
+    if d > 1e-13 * ln:
+        v1 = np.arcsinh(t1 / d)
+        v2 = np.arcsinh(t2 / d)
+        npc = max(1, int(np.ceil((v2 - v1) / piece)))
+        hv = (v2 - v1) / npc
+        d2 = d * d
+        for k in range(npc):
+            va = v1 + k * hv
+            part = 0.0
+            for g in range(ng):
+                ch = np.cosh(va + hv * gx[g])
+                part += gw[g] * ch * _g_kernel(d2 * ch * ch, s, logl0, l0p)
+            acc += part
+        return acc * hv * d
+    # x on the line of e, outside the segment: t = ±exp(w), w = log |t|
+    lo = min(abs(t1), abs(t2))
+    hi = max(abs(t1), abs(t2))
+    w1 = np.log(lo)
+    w2 = np.log(hi)
+    npc = max(1, int(np.ceil((w2 - w1) / piece)))
+    hw = (w2 - w1) / npc
+    for k in range(npc):
+        wa = w1 + k * hw
+        part = 0.0
+        for g in range(ng):
+            tt = np.exp(wa + hw * gx[g])
+            part += gw[g] * tt * _g_kernel(tt * tt, s, logl0, l0p)
+        acc += part
+    return acc * hw
+
+
+@njit(cache=True)
+def _double_near(x0, x1, ax, ay, bx, by, ua, ub, s, gx, gw, piece):  # pragma: no cover
+    """d_e ∫_[a,b] u(y) |x − y|^(−2−2s) dℓ(y), u linear from ua to ub, by the
+    sinh substitution; d_e = (a − x)·n with n the right-hand normal of a → b."""
+    tx = bx - ax
+    ty = by - ay
+    ln = np.sqrt(tx * tx + ty * ty)
+    tx /= ln
+    ty /= ln
+    px = ax - x0
+    py = ay - x1
+    t1 = px * tx + py * ty
+    d = px * ty - py * tx               # signed: (a − x)·(ty, −tx)
+    ad = abs(d)
+    if ad <= 1e-13 * ln:
+        return 0.0
+    v1 = np.arcsinh(t1 / ad)
+    v2 = np.arcsinh((t1 + ln) / ad)
+    npc = max(1, int(np.ceil((v2 - v1) / piece)))
+    hv = (v2 - v1) / npc
+    du = (ub - ua) / ln
+    ng = gx.shape[0]
+    acc = 0.0
+    for k in range(npc):
+        va = v1 + k * hv
+        part = 0.0
+        for g in range(ng):
+            v = va + hv * gx[g]
+            tt = ad * np.sinh(v)            # position from the foot point
+            uu = ua + du * (tt - t1)
+            part += gw[g] * uu * np.cosh(v) ** (-1.0 - 2.0 * s)
+        acc += part
+    # d ∫ u (d² + t²)^(−1−s) dt, dt = |d| cosh v dv
+    return np.sign(d) * ad ** (-2.0 * s) * acc * hv
+
+
+@njit(cache=True, parallel=True)
+def riesz_edges(x, edata, ba, bb, bu, s, logl0, near, ratios, gl_x, gl_w, gl_off,
+                bratios, bgl_x, bgl_w, bgl_off, nx, nw, piece, out):  # pragma: no cover
+    """Σ_e J_e S_e(x_i) + Σ_boundary D_e(x_i) for every point x_i.
+
+    x (n, 2) points (never on an edge); edata (m, 8) per edge: ends a, b
+    (4 columns), midpoint (2), 1/|e|², J_e |e| with J_e the jump of the
+    normal derivative; ba, bb (mb, 2) boundary edges oriented with Ω on the
+    left, bu (mb, 2) the values of u at their ends; logl0 = log ℓ₀; near:
+    sinh rule where |x − m_e| < near |e|; ratios (L,) increasing distance
+    ratios at which the Gauss levels 1..L start (level 0 from ``near``),
+    gl_x/gl_w concatenated Gauss rules on [0, 1] of levels 0..L with offsets
+    gl_off (L+2,); bratios, bgl_x, bgl_w, bgl_off the same for the boundary
+    (double layer) edges; nx, nw the Gauss rule on [0, 1] of the sinh
+    pieces of length ≤ piece.  A single-layer level without Gauss points
+    (gl_off[l] == gl_off[l+1]) means the midpoint rule with its analytic
+    second-order correction (one kernel evaluation per edge).  out (n,)
+    receives the sum, without the factor c_{2,s}/(2s).
+    """
+    n = x.shape[0]
+    m = edata.shape[0]
+    mb = ba.shape[0]
+    nlev = ratios.shape[0]
+    nblev = bratios.shape[0]
+    near2 = near * near
+    rat2 = ratios * ratios
+    brat2 = bratios * bratios
+    ex = -1.0 - s
+    s2 = 2.0 * s
+    l0s = np.exp(-s2 * logl0)            # ℓ₀^(−2s)
+    l0p = l0s / s2
+    half = s == 0.5
+    for i in prange(n):
+        x0 = x[i, 0]
+        x1 = x[i, 1]
+        acc = 0.0
+        for e in range(m):
+            mx = edata[e, 4] - x0
+            my = edata[e, 5] - x1
+            r2 = mx * mx + my * my
+            q = r2 * edata[e, 6]
+            if q < near2:
+                acc += edata[e, 7] * edata[e, 6] ** 0.5 * _single_near(
+                    x0, x1, edata[e, 0], edata[e, 1], edata[e, 2], edata[e, 3],
+                    s, logl0, l0p, nx, nw, piece)
+                continue
+            lev = 0
+            while lev < nlev and q >= rat2[lev]:
+                lev += 1
+            tx = edata[e, 2] - edata[e, 0]
+            ty = edata[e, 3] - edata[e, 1]
+            if gl_off[lev + 1] == gl_off[lev]:
+                # midpoint rule with its second-order correction:
+                # ∫ f = |e| f(0) + |e|³/24 f''(0), f(t) = G(|m_e − x + t τ|),
+                # f'' = ρ^(−2s−2) ((2s+2)(z·τ)²/ρ² − 1)
+                if half:
+                    rp = 1.0 / np.sqrt(r2)                 # ρ^(−2s)
+                else:
+                    rp = np.exp(-s * np.log(r2))
+                pz = mx * tx + my * ty
+                f2 = rp / r2 * ((s2 + 2.0) * pz * pz * edata[e, 6] / r2 - 1.0)
+                acc += edata[e, 7] * ((rp - l0s) / s2 + f2 / (24.0 * edata[e, 6]))
+                continue
+            part = 0.0
+            wsum = 0.0
+            for g in range(gl_off[lev], gl_off[lev + 1]):
+                yx = edata[e, 0] + gl_x[g] * tx - x0
+                yy = edata[e, 1] + gl_x[g] * ty - x1
+                if half:
+                    part += gl_w[g] / np.sqrt(yx * yx + yy * yy)
+                else:
+                    part += gl_w[g] * np.exp(-s * np.log(yx * yx + yy * yy))
+                wsum += gl_w[g]
+            acc += edata[e, 7] * (part - wsum * l0s) / s2
+        for e in range(mb):
+            ax = ba[e, 0]
+            ay = ba[e, 1]
+            tx = bb[e, 0] - ax
+            ty = bb[e, 1] - ay
+            l2 = tx * tx + ty * ty
+            mx = ax + 0.5 * tx - x0
+            my = ay + 0.5 * ty - x1
+            q = (mx * mx + my * my) / l2
+            if q < near2:
+                acc += _double_near(x0, x1, ax, ay, bb[e, 0], bb[e, 1], bu[e, 0],
+                                    bu[e, 1], s, nx, nw, piece)
+                continue
+            lev = 0
+            while lev < nblev and q >= brat2[lev]:
+                lev += 1
+            ln = np.sqrt(l2)
+            d = ((ax - x0) * ty - (ay - x1) * tx) / ln
+            part = 0.0
+            for g in range(bgl_off[lev], bgl_off[lev + 1]):
+                yx = ax + bgl_x[g] * tx - x0
+                yy = ay + bgl_x[g] * ty - x1
+                uu = bu[e, 0] + bgl_x[g] * (bu[e, 1] - bu[e, 0])
+                part += bgl_w[g] * uu * (yx * yx + yy * yy) ** ex
+            acc += d * ln * part
+        out[i] = acc
