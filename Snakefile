@@ -18,5 +18,6 @@ rule all:
         rules.fig02.output,
         rules.ex1_extra_figures.output,
         rules.rates.output,
+        rules.ex1_quadrature_table.output,
         rules.benchmark_assembly.output,
     default_target: True

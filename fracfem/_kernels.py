@@ -67,14 +67,14 @@ def singular_pairs(p, nodes, tp, signs, zq, wq, amat, s, out):  # pragma: no cov
 
 @njit(cache=True, parallel=True)
 def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
-              s, nv, nchunks):  # pragma: no cover
+              taylor, s, nv, nchunks):  # pragma: no cover
     """All non-touching element pairs with product Gauss rules.
 
     The rule of a pair is chosen from its separation ratio
     |c_T − c_T'| / max(diam_T, diam_T'): level L (points
     offsets[L]:offsets[L+1] of qx, qw, lam) is the first with
     ratio >= thresholds[L]; the last level is the most accurate.
-    A level with a single point is the Taylor-corrected centroid rule (area,
+    If ``taylor`` is true, level 0 is the Taylor-corrected centroid rule (area,
     second moments mom = (Ixx, Ixy, Iyy) about the centroid, gradients of
     the barycentric coordinates grad (nt, 3, 2)).
     Returns the off-diagonal part X (nchunks, nv, nv), to be summed over
@@ -112,10 +112,12 @@ def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
                         break
                 q0 = offsets[lev]
                 nq = offsets[lev + 1] - q0
-                if nq == 1:
+                if taylor and lev == 0:
                     # second-order Taylor-corrected centroid rule: expand k
                     # about D = c_T − c_T' with the elements' second moments
-                    # I_T; error O((h/d)^3), one kernel evaluation.
+                    # I_T, one kernel evaluation.  Error O((h/d)^3) in the
+                    # quadratic form of smooth u; single entries O(h/d) to
+                    # O((h/d)^2) (dropped third-moment terms).
                     k = r2 ** expo
                     kr = alpha * k / r2
                     gx = kr * dx

@@ -17,7 +17,8 @@ from x, d the distance of x to that line): the integrand becomes analytic
 in the strip |Im v| < π/2 whatever d, so Gauss–Legendre on pieces of
 length ≤ ``piece`` in v converges geometrically, also for x very close to
 e.  Farther edges use Gauss–Legendre rules in t with fewer points as the
-distance ratio grows.
+distance ratio grows and, farthest, the midpoint rule with its analytic
+second-order correction.
 
 All kernels are compiled with ``cache=True`` (every Snakemake job is a
 fresh process) and are parallel over evaluation points.

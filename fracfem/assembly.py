@@ -61,6 +61,26 @@ class QuadratureOptions:
     kappa_layers: int = 6
     kappa_gauss: int = 4
 
+    def __post_init__(self):
+        for name in ("coincident", "edge", "vertex", "kappa_order", "kappa_layers",
+                     "kappa_gauss"):
+            val = getattr(self, name)
+            if not isinstance(val, (int, np.integer)) or val < 1:
+                raise ValueError(f"QuadratureOptions.{name}={val!r} must be an integer >= 1")
+        if len(self.far_orders) < 1 or any(not 0 <= o <= 12 for o in self.far_orders):
+            raise ValueError(f"QuadratureOptions.far_orders={self.far_orders!r} must be "
+                             "one or more triangle-rule degrees in [0, 12] (0: Taylor rule)")
+        if 0 in self.far_orders[1:]:
+            raise ValueError("QuadratureOptions.far_orders: only the first (farthest) "
+                             "class may use the Taylor rule (order 0)")
+        if len(self.far_thresholds) != len(self.far_orders) - 1:
+            raise ValueError(f"QuadratureOptions.far_thresholds={self.far_thresholds!r} must "
+                             f"have len(far_orders) - 1 = {len(self.far_orders) - 1} entries")
+        if any(not r > 0 for r in self.far_thresholds) or list(self.far_thresholds) != sorted(
+                self.far_thresholds, reverse=True):
+            raise ValueError(f"QuadratureOptions.far_thresholds={self.far_thresholds!r} must "
+                             "be positive and decreasing (farthest class first)")
+
     def raised(self) -> "QuadratureOptions":
         """Every order raised: for quadrature-convergence checks."""
         return replace(
@@ -153,7 +173,7 @@ def _singular_local(p, nodes, kind, n, s):
 def _far_rules(p, t, orders):
     """Physical points (Nt, nq, 2), weights (Nt, nq), barycentrics, offsets."""
     pts, wts, lams, offs = [], [], [], [0]
-    area2 = np.abs(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
+    area2 = np.abs(_cross2(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
     for o in orders:
         X, W = triangle_rule(max(o, 1))  # order 0: Taylor level, centroid
         lam = np.column_stack([1.0 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])
@@ -166,6 +186,11 @@ def _far_rules(p, t, orders):
     return (np.ascontiguousarray(np.concatenate(pts, axis=1)),
             np.ascontiguousarray(np.concatenate(wts, axis=1)),
             np.ascontiguousarray(np.vstack(lams)), np.array(offs, dtype=np.int64))
+
+
+def _cross2(a, b):
+    """z-component of the cross product of 2D vectors (..., 2)."""
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
 def _element_moments(p, t):
@@ -193,7 +218,7 @@ def _boundary_edges(p, t):
     e, r = uniq[b], third[idx[b]]
     a0, a1, c = p[e[:, 0]], p[e[:, 1]], p[r]
     # Ω (the third vertex) must lie to the left of a0 → a1
-    left = np.cross(a1 - a0, c - a0) > 0
+    left = _cross2(a1 - a0, c - a0) > 0
     e = np.where(left[:, None], e, e[:, ::-1])
     return np.column_stack([p[e[:, 0]], p[e[:, 1]]]), np.unique(e)
 
@@ -249,7 +274,7 @@ def _kappa_local(p, t, boundary_nodes, edges, s, quad):
     nt = len(t)
     onb = np.isin(t, boundary_nodes)
     nb = onb.sum(1)
-    area2 = np.abs(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
+    area2 = np.abs(_cross2(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
     out = np.zeros((nt, 3, 3))
     # away from ∂Ω κ is smooth on the scale of the distance: a lower order
     # suffices where that distance exceeds four element diameters
@@ -338,10 +363,12 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
     if nchunks is None:
         import numba
         nchunks = numba.get_num_threads()
+    if int(nchunks) < 1:
+        raise ValueError(f"nchunks={nchunks!r} must be >= 1")
     X, D = _kernels.far_pairs(t, np.ascontiguousarray(cent), diam, area, mom, grad,
                               qx, qw, lam, offs,
                               np.asarray(quad.far_thresholds, dtype=np.float64),
-                              s, nv, int(nchunks))
+                              orders[0] == 0, s, nv, int(nchunks))
     X *= c
     _kernels.sum_chunks_symmetric(X, A)
     del X
@@ -378,7 +405,7 @@ def load_vector(mesh, f, *, order: int = 6) -> np.ndarray:
     fx = np.broadcast_to(np.asarray(f(x) if callable(f) else f, dtype=float), x.shape[1:])
     if not np.all(np.isfinite(fx)):
         raise ValueError("f returned non-finite values at quadrature points")
-    area2 = np.abs(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
+    area2 = np.abs(_cross2(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
     loc = np.einsum("tq,q,qa->ta", fx, W, lam) * area2[:, None]
     return np.bincount(t.ravel(), weights=loc.ravel(), minlength=len(p))
 

@@ -1,6 +1,8 @@
 """Constants and exact solutions of the integral fractional Laplacian in 2D."""
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 from scipy.special import gamma
 
@@ -16,10 +18,10 @@ __all__ = [
 
 def check_s(s, *, name: str = "s", low: float = 0.0, high: float = 1.0) -> float:
     """Return s as float if low < s < high, else raise a ValueError naming it."""
-    try:
-        val = float(s)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}={s!r} must be a number in ({low}, {high})") from None
+    if isinstance(s, (bool, np.bool_)) or not isinstance(s, (numbers.Real, np.floating,
+                                                            np.integer)):
+        raise ValueError(f"{name}={s!r} must be a number in ({low}, {high})")
+    val = float(s)
     if not (np.isfinite(val) and low < val < high):
         raise ValueError(f"{name}={s!r} is outside the allowed range ({low}, {high})")
     return val

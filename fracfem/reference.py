@@ -67,14 +67,6 @@ def _area2(P):
     return abs(e1[0] * e2[1] - e1[1] * e2[0])
 
 
-def _barycentric(P, x):
-    """Barycentric coordinates (..., 3) of points x (..., 2) w.r.t. triangle P."""
-    T = np.column_stack([P[1] - P[0], P[2] - P[0]])
-    l12 = np.linalg.solve(T, (np.asarray(x) - P[0]).reshape(-1, 2).T).T
-    lam = np.column_stack([1.0 - l12.sum(1), l12])
-    return lam.reshape(np.shape(x)[:-1] + (3,))
-
-
 def _gradients(P):
     """Gradients (3, 2) of the barycentric coordinates of triangle P."""
     T = np.column_stack([P[1] - P[0], P[2] - P[0]])

@@ -343,8 +343,11 @@ def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
     upper = {z > upper bound}, lower = {z < lower bound} (λ fixed there at the
     bound: no contact / slip) and the rest E (contact / stick: y_E = 0 imposed,
     λ_E unknown), and solves the reduced saddle system through the dense Schur
-    complement S_EE = B_EᵀA⁻¹B_E.  It stops when the sets repeat, which means
-    the KKT system holds exactly; a cycle of sets is broken by halving c.
+    complement S_EE = B_EᵀA⁻¹B_E (all of S = BᵀA⁻¹B is formed once, 2n²m flops,
+    then each step costs one Cholesky factorisation of S_EE).  It stops when the
+    sets repeat, which means the KKT system holds exactly; a cycle of sets is
+    broken by halving c.  Exactly singular S_EE (see :func:`schur_spectrum`) are
+    solved in the minimum-norm sense.
 
     Parameters
     ----------
@@ -381,6 +384,9 @@ def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
     d = B.T @ _solve(factor, f) - cset.g  # dual gradient at λ = 0
     t_schur = time.perf_counter() - t0
 
+    if np.any(np.diag(S) <= 0):
+        raise ValueError("B has a zero column (a multiplier that no free node sees): "
+                         f"column {int(np.argmin(np.diag(S)))}")
     c = 1.0 / np.diag(S) if c is None else np.broadcast_to(np.asarray(c, float), (m,))
     if not np.all(np.isfinite(c) & (c > 0)):
         raise ValueError("c must be positive and finite")

@@ -66,3 +66,32 @@ rule ex1_extra_figures:
         f"{RES}/logs/ex1_extra.log",
     script:
         "../scripts/ex1_extra.py"
+
+
+rule ex1_quadrature_check:
+    input:
+        row=f"{RES}/ex1/{{family}}/s{{s}}/{{tag}}.csv",
+    output:
+        row=f"{RES}/ex1-quadrature/{{family}}/s{{s}}/{{tag}}.csv",
+    log:
+        f"{RES}/logs/ex1-quadrature/{{family}}_s{{s}}_{{tag}}.log",
+    benchmark:
+        f"{RES}/benchmarks/ex1-quadrature/{{family}}_s{{s}}_{{tag}}.tsv"
+    params:
+        grading=EX1["grading"],
+        quadrature=config["quadrature"],
+    threads: 2
+    script:
+        "../scripts/ex1_quadrature.py"
+
+
+rule ex1_quadrature_table:
+    input:
+        [f"{RES}/ex1-quadrature/{fam}/s{fmt(EX1['s'])}/{ex1_level_tags(fam)[-1]}.csv"
+         for fam in ("uniform", "graded")],
+    output:
+        md=f"{OUT}/ex1-quadrature-check.md",
+    log:
+        f"{RES}/logs/ex1_quadrature_table.log",
+    script:
+        "../scripts/ex1_quadrature_table.py"
