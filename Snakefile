@@ -9,6 +9,7 @@ configfile: "config.yaml"
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/example1.smk"
+include: "workflow/rules/vi.smk"
 include: "workflow/rules/report.smk"
 
 
@@ -20,4 +21,9 @@ rule all:
         rules.rates.output,
         rules.ex1_quadrature_table.output,
         rules.benchmark_assembly.output,
+        rules.fig03.output,
+        rules.fig04.output,
+        rules.fig08.output,
+        rules.vi_runs_md.output,
+        expand(rules.thin_demo.output, kind=["obstacle", "friction"]),
     default_target: True

@@ -12,7 +12,7 @@ rule ex1_solve:
     params:
         grading=EX1["grading"],
         quadrature=config["quadrature"],
-        config=config,
+        config={k: config[k] for k in ("example1", "quadrature")},
     threads: 2
     script:
         "../scripts/ex1_solve.py"

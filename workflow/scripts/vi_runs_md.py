@@ -1,0 +1,20 @@
+"""Markdown table of the obstacle and friction runs."""
+import pandas as pd
+
+from fracfem.io import atomic_path
+
+COLUMNS = ["problem", "family", "dofs", "multipliers", "h_max", "iterations_uzawa",
+           "iterations_pdas", "contact", "slip_plus", "slip_minus", "stick",
+           "max_du_uzawa_pdas", "max_dlambda_uzawa_pdas", "t_assembly", "t_schur",
+           "t_uzawa", "t_pdas"]
+
+
+def main(tables, md):
+    df = pd.concat([pd.read_csv(t) for t in tables], ignore_index=True)
+    cols = [c for c in COLUMNS if c in df.columns]
+    with atomic_path(md) as tmp:
+        tmp.write_text(df[cols].to_markdown(index=False, floatfmt=".3g") + "\n")
+
+
+if __name__ == "__main__":
+    main(list(snakemake.input), snakemake.output.md)  # noqa: F821
