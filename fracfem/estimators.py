@@ -137,8 +137,10 @@ def patch_diameters(mesh) -> np.ndarray:
     nb = np.repeat(np.arange(nv)[:, None], deg.max() + 1, axis=1)  # pad with i itself
     nb[a, slot] = b
     x = p[nb]                                           # (nv, K, 2)
-    d2 = np.sum((x[:, :, None, :] - x[:, None, :, :]) ** 2, axis=-1)
-    return np.sqrt(d2.max(axis=(1, 2)))
+    d2 = np.zeros(nv)
+    for k in range(x.shape[1] - 1):                     # pairs (k, > k), O(nv K) memory
+        d2 = np.maximum(d2, np.sum((x[:, k + 1:] - x[:, k:k + 1]) ** 2, axis=-1).max(1))
+    return np.sqrt(d2)
 
 
 def abs_integrals(mesh, u) -> tuple[np.ndarray, np.ndarray]:
@@ -197,7 +199,7 @@ def _check_order(order):
     return int(order)
 
 
-def _check_p(p, s):
+def _check_p(p):
     if not isinstance(p, numbers.Real) or isinstance(p, bool) or not (1.0 <= p < np.inf):
         raise ValueError(f"p={p!r} must be a number in [1, ∞) (the L^p variant)")
     return float(p)
@@ -207,8 +209,7 @@ def _check_p(p, s):
 
 
 def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
-                        p: float = 2.0, options: PointwiseOptions | None = None,
-                        rh=None):
+                        p: float = 2.0, options: PointwiseOptions | None = None):
     """Node terms η_i² of Lemma 5.22 and their element shares.
 
     Returns a dict with
@@ -222,27 +223,19 @@ def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
     """
     s = check_s(s)
     order = _check_order(order)
-    p_exp = _check_p(p, s)
+    p_exp = _check_p(p)
     P, T = mesh_arrays(fine)
     nv, nt = len(P), len(T)
     u = _check_u(fine, u)
     X, _ = triangle_rule(order)
     bary = np.column_stack([1.0 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])  # (nq, 3)
     t0 = time.perf_counter()
-    if rh is None:
-        lap, pts, wts = fractional_laplacian_qp(fine, u, s, order, options=options)
-        x = np.moveaxis(pts, -1, 0)                                    # (2, Nt, nq)
-        fx = np.broadcast_to(np.asarray(f(x) if callable(f) else f, dtype=float),
-                             lap.shape)
-        if not np.all(np.isfinite(fx)):
-            raise ValueError("f returned non-finite values at quadrature points")
-        rh = fx - lap
-    else:
-        from .pointwise import quadrature_points
-        _, wts, _ = quadrature_points(fine, order)
-        rh = np.asarray(rh, dtype=float)
-        if rh.shape != wts.shape:
-            raise ValueError(f"rh must have shape {wts.shape}, got {rh.shape}")
+    lap, pts, wts = fractional_laplacian_qp(fine, u, s, order, options=options)
+    x = np.moveaxis(pts, -1, 0)                                        # (2, Nt, nq)
+    fx = np.broadcast_to(np.asarray(f(x) if callable(f) else f, dtype=float), lap.shape)
+    if not np.all(np.isfinite(fx)):
+        raise ValueError("f returned non-finite values at quadrature points")
+    rh = fx - lap
     t_pw = time.perf_counter() - t0
     lam = np.zeros(nt) if lam_fine is None else np.asarray(lam_fine, dtype=float)
     if lam.shape != (nt,):
@@ -440,7 +433,13 @@ def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
     -------
     dict with ``eta2_fine`` (Nt_h,), ``eta2_coarse`` (N_H,: sums over the four
     children), ``eta`` (√(Σ_i η_i² + Σ Lemma 5.21 terms), each node once),
-    ``eta_elements`` (√Σ η²_fine), ``parts`` and ``timings``.
+    ``eta_elements`` (√Σ η²_fine), ``parts`` and ``timings``.  ``parts`` holds
+    ``residual`` (Σ_i η_i², squared), ``residual_nodes`` (η_i² per node, 0 where
+    not admitted), ``residual_fine`` (residual part of η(Δ)²), ``contact`` (the
+    dict of :func:`contact_terms`), ``contact_total`` (Σ of the Lemma 5.21 terms,
+    unclipped; the fine shares enter η(Δ)² clipped at 0 against round-off),
+    ``contact_nodes``, ``admitted_nodes``, ``h_nodes``, ``mean`` (R̄_i), ``rh``
+    (r_h at the quadrature points, (Nt, nq)).
     """
     t0 = time.perf_counter()
     if prob.kind not in ("obstacle", "friction"):
