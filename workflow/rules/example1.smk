@@ -18,9 +18,26 @@ rule ex1_solve:
         "../scripts/ex1_solve.py"
 
 
+rule ex1_adaptive:
+    output:
+        table=f"{RES}/ex1/adaptive/s{{s}}/steps.csv",
+        npz=f"{RES}/ex1/adaptive/s{{s}}/last.npz",
+    log:
+        f"{RES}/logs/ex1/adaptive_s{{s}}.log",
+    benchmark:
+        f"{RES}/benchmarks/ex1/adaptive_s{{s}}.tsv"
+    params:
+        adaptive=EX1["adaptive"],
+        quadrature=config["quadrature"],
+    threads: 2
+    script:
+        "../scripts/ex1_adaptive.py"
+
+
 rule ex1_table:
     input:
         ex1_rows(S_EX1),
+        f"{RES}/ex1/adaptive/s{fmt(EX1['s'])}/steps.csv",
     output:
         table=f"{RES}/ex1/table.csv",
     log:
@@ -43,7 +60,7 @@ rule fig01:
 
 rule fig02:
     input:
-        rows=ex1_rows([EX1["s"]]),
+        rows=ex1_rows([EX1["s"]]) + [f"{RES}/ex1/adaptive/s{fmt(EX1['s'])}/steps.csv"],
     output:
         png=f"{OUT}/fig02-ex1-error.png",
         pdf=f"{OUT}/fig02-ex1-error.pdf",
