@@ -22,12 +22,15 @@ def radial_load(a: float = 1.0, b: float = 0.0):
 
 
 def segment_edges(coarse, x0: float, x1: float, y: float = 0.0, tol: float = 1e-12):
-    """Coarse edges on the segment [x0, x1] × {y}: the curve Γ̃ of thin problems."""
-    p = coarse.p
-    e = coarse.facets
-    on = lambda v: (np.abs(p[1, v] - y) < tol) & (p[0, v] > x0 - tol) & (p[0, v] < x1 + tol)
-    edges = e[:, on(e[0]) & on(e[1])]
-    covered = np.sum(np.abs(p[0, edges[1]] - p[0, edges[0]]))
+    """Coarse edges on the segment [x0, x1] × {y}: the curve Γ̃ of thin problems.
+
+    Raises ValueError unless these edges cover the whole segment.
+    """
+    from .mixed import edges_on_curve
+
+    edges = edges_on_curve(coarse, lambda x: (np.abs(x[1] - y) < tol)
+                           & (x[0] > x0 - tol) & (x[0] < x1 + tol))
+    covered = np.sum(np.abs(coarse.p[0, edges[1]] - coarse.p[0, edges[0]]))
     if edges.shape[1] == 0 or abs(covered - (x1 - x0)) > 1e-9:
         raise ValueError(f"the segment [{x0}, {x1}] x {{{y}}} is not made of coarse mesh edges "
                          f"(edges found cover length {covered:.6g})")
