@@ -13,7 +13,8 @@ from fracfem.report import fit_rate  # noqa: E402
 
 def main(table, time_png, orders_png, errors_md):
     df = pd.read_csv(table)
-    cols = ["s", "family", "dofs", "error", "t_assembly", "t_solve", "t_total", "peak_mem_mb"]
+    cols = ["s", "family", "dofs", "error", "eta", "efficiency", "t_assembly", "t_solve",
+            "t_total", "t_cumulative", "peak_mem_mb"]
     summary = df[cols].sort_values(["s", "family", "dofs"])
     with atomic_path(errors_md) as tmp:
         tmp.write_text(summary.to_markdown(index=False, floatfmt=".4g") + "\n")
