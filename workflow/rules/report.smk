@@ -29,5 +29,5 @@ rule benchmark_assembly:
         f"{RES}/benchmarks/benchmark_assembly.tsv"
     threads: 2
     shell:
-        "NUMBA_NUM_THREADS={threads} python benchmarks/bench_assembly.py "
+        "NUMBA_NUM_THREADS={threads} python {workflow.basedir}/benchmarks/bench_assembly.py "
         "--levels {params.levels} --s {params.s} --csv {output.csv} --md {output.md} > {log} 2>&1"
