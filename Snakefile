@@ -21,6 +21,7 @@ rule all:
         rules.rates.output,
         rules.ex1_quadrature_table.output,
         rules.benchmark_assembly.output,
+        rules.bad_inputs.output,
         rules.fig03.output,
         rules.fig04.output,
         rules.fig08.output,

@@ -31,3 +31,12 @@ rule benchmark_assembly:
     shell:
         "NUMBA_NUM_THREADS={threads} python {workflow.basedir}/benchmarks/bench_assembly.py "
         "--levels {params.levels} --s {params.s} --csv {output.csv} --md {output.md} > {log} 2>&1"
+
+
+rule bad_inputs:
+    output:
+        md=f"{OUT}/bad-inputs.md",
+    log:
+        f"{RES}/logs/bad_inputs.log",
+    script:
+        "../scripts/bad_inputs.py"
