@@ -5,17 +5,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import plt, save  # noqa: E402
+from plotstyle import save, solution_figure  # noqa: E402
 
 
 def main(npz, png):
-    d = np.load(npz)
-    p, t, u, pc, lam, edges = d["p"], d["t"], d["u"], d["pc"], d["lam"], d["edges"]
-    fig = plt.figure(figsize=(10, 4.2))
-    ax = fig.add_subplot(1, 2, 1, projection="3d")
-    ax.plot_trisurf(p[0], p[1], u, triangles=t.T, cmap="viridis", linewidth=0)
-    ax.set_title(f"$u_h$, s = {float(d['s']):g}")
-    ax2 = fig.add_subplot(1, 2, 2)
+    d, fig, ax2 = solution_figure(npz, "$u_h$, s = {s:g}")
+    p, u, pc, lam, edges = d["p"], d["u"], d["pc"], d["lam"], d["edges"]
     xm = pc[0, edges].mean(axis=0)
     order = np.argsort(xm)
     on = np.abs(p[1]) < 1e-12
