@@ -40,3 +40,18 @@ rule bad_inputs:
         f"{RES}/logs/bad_inputs.log",
     script:
         "../scripts/bad_inputs.py"
+
+
+# Not in `rule all`: run with `snakemake --cores 2 stability` (issue 6).
+rule stability:
+    output:
+        md=f"{OUT}/stability.md",
+        png=f"{OUT}/extra-stability.png",
+        csv=f"{RES}/stability/table.csv",
+    log:
+        f"{RES}/logs/stability.log",
+    benchmark:
+        f"{RES}/benchmarks/stability.tsv"
+    threads: 2
+    script:
+        "../scripts/stability.py"
