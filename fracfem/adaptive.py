@@ -26,7 +26,7 @@ import numpy as np
 
 from . import estimators
 from .laplace import Discretisation, solve_laplace
-from .meshes import refine_disk
+from .meshes import element_diameters, refine_disk
 
 __all__ = ["mark_maximum", "mark_doerfler", "algorithm_b", "algorithm_b_steps",
            "StepRecord", "MARKINGS"]
@@ -108,12 +108,6 @@ class StepRecord:
     stop: str | None = None         # why the loop stopped after this step, if it did
 
 
-def _edge_lengths(mesh):
-    p, t = mesh.p, mesh.t
-    return np.stack([np.linalg.norm(p[:, t[(i + 1) % 3]] - p[:, t[i]], axis=0)
-                     for i in range(3)]).max(axis=0)
-
-
 def algorithm_b_steps(make_problem: Callable, coarse0, *, theta: float, steps: int,
                       marking: str = "maximum", solver: str = "pdas",
                       tol: float | None = None, f=None, order: int = 4,
@@ -170,7 +164,7 @@ def algorithm_b_steps(make_problem: Callable, coarse0, *, theta: float, steps: i
         energy = 0.5 * float(uf @ (disc.A @ uf)) - float(disc.b @ uf)
         if isinstance(prob, MixedProblem) and prob.kind == "friction":
             energy += float(np.sum(prob.cset.upper * np.abs(prob.cset.B.T @ uf)))
-        lengths = _edge_lengths(fine)
+        lengths = element_diameters(fine)
         rec = StepRecord(step=k, dofs=len(disc.free), n_multipliers=n_mult,
                          n_triangles=fine.t.shape[1],
                          n_coarse=None if coarse is None else coarse.t.shape[1],

@@ -169,10 +169,20 @@ def _singular_local(p, nodes, kind, n, s):
     return out * radial_factor(kind, s)
 
 
-def _far_rules(p, t, orders):
+def _element_geometry(p, t):
+    """Twice the areas, centroids (Nt, 2) and diameters (longest edge) of the elements."""
+    area2 = np.abs(_cross2(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
+    cent = np.ascontiguousarray(p[t].mean(axis=1))
+    diam = np.max([np.linalg.norm(p[t[:, i]] - p[t[:, j]], axis=1)
+                   for i, j in ((0, 1), (1, 2), (2, 0))], axis=0)
+    return area2, cent, diam
+
+
+def _far_rules(p, t, orders, area2=None):
     """Physical points (Nt, nq, 2), weights (Nt, nq), barycentrics, offsets."""
     pts, wts, lams, offs = [], [], [], [0]
-    area2 = np.abs(_cross2(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
+    if area2 is None:
+        area2 = _element_geometry(p, t)[0]
     for o in orders:
         X, W = triangle_rule(max(o, 1))  # order 0: Taylor level, centroid
         lam = np.column_stack([1.0 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])
@@ -267,19 +277,16 @@ def _graded_collapsed_rule(layers, ngauss, toward_apex):
     return bary, W.ravel()
 
 
-def _kappa_local(p, t, boundary_nodes, edges, s, quad):
+def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None):
     """∫_T φ_a φ_b κ for every element (Nt, 3, 3); zero for elements whose
     three nodes are all on ∂Ω (they carry no free node)."""
     nt = len(t)
     onb = np.isin(t, boundary_nodes)
     nb = onb.sum(1)
-    area2 = np.abs(_cross2(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
+    area2, cent, diam = _element_geometry(p, t) if geometry is None else geometry
     out = np.zeros((nt, 3, 3))
     # away from ∂Ω κ is smooth on the scale of the distance: a lower order
     # suffices where that distance exceeds four element diameters
-    cent = p[t].mean(axis=1)
-    diam = np.max([np.linalg.norm(p[t[:, i]] - p[t[:, j]], axis=1)
-                   for i, j in ((0, 1), (1, 2), (2, 0))], axis=0)
     far = np.zeros(nt, dtype=bool)
     inner = np.flatnonzero(nb == 0)
     if inner.size:
@@ -354,17 +361,16 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
 
     t1 = time.perf_counter()
     orders = quad.far_orders
-    qx, qw, lam, offs = _far_rules(p, t, orders)
-    cent = p[t].mean(axis=1)
-    diam = np.max([np.linalg.norm(p[t[:, i]] - p[t[:, j]], axis=1)
-                   for i, j in ((0, 1), (1, 2), (2, 0))], axis=0)
+    geometry = _element_geometry(p, t)
+    area2, cent, diam = geometry
+    qx, qw, lam, offs = _far_rules(p, t, orders, area2)
     area, mom, grad = _element_moments(p, t)
     if nchunks is None:
         import numba
         nchunks = numba.get_num_threads()
     if int(nchunks) < 1:
         raise ValueError(f"nchunks={nchunks!r} must be >= 1")
-    X, D = _kernels.far_pairs(t, np.ascontiguousarray(cent), diam, area, mom, grad,
+    X, D = _kernels.far_pairs(t, cent, diam, area, mom, grad,
                               qx, qw, lam, offs,
                               np.asarray(quad.far_thresholds, dtype=np.float64),
                               orders[0] == 0, s, nv, int(nchunks))
@@ -384,7 +390,7 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
     tim["far"] = time.perf_counter() - t1
 
     t2 = time.perf_counter()
-    K = _kappa_local(p, t, bnodes, edges, s, quad)
+    K = _kappa_local(p, t, bnodes, edges, s, quad, geometry)
     _kernels.scatter_local(A, t, K, c)
     tim["exterior"] = time.perf_counter() - t2
 
@@ -404,7 +410,7 @@ def load_vector(mesh, f, *, order: int = 6) -> np.ndarray:
     fx = np.broadcast_to(np.asarray(f(x) if callable(f) else f, dtype=float), x.shape[1:])
     if not np.all(np.isfinite(fx)):
         raise ValueError("f returned non-finite values at quadrature points")
-    area2 = np.abs(_cross2(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]))
+    area2 = _element_geometry(p, t)[0]
     loc = np.einsum("tq,q,qa->ta", fx, W, lam) * area2[:, None]
     return np.bincount(t.ravel(), weights=loc.ravel(), minlength=len(p))
 

@@ -29,6 +29,7 @@ __all__ = [
     "mesh_from_arrays",
     "interior_nodes",
     "mesh_size",
+    "element_diameters",
     "min_angle",
 ]
 
@@ -211,7 +212,7 @@ def disk_graded(h: float, grading: float = 2.0) -> MeshTri:
         p, t = mesh.p, mesh.t
         dist = np.clip(1.0 - np.linalg.norm(p, axis=0), 0.0, None)[t].min(axis=0)
         target = h * np.maximum(dist, h**grading) ** ((grading - 1.0) / grading)
-        diam = _edge_lengths(p, t).max(axis=0)
+        diam = element_diameters(mesh)
         marked = np.flatnonzero(diam > target)
         if marked.size == 0:
             break
@@ -358,7 +359,12 @@ def mesh_size(mesh: MeshTri) -> float:
     mesh : MeshTri
         The mesh.
     """
-    return float(_edge_lengths(mesh.p, mesh.t).max())
+    return float(element_diameters(mesh).max())
+
+
+def element_diameters(mesh: MeshTri) -> np.ndarray:
+    """Diameter (longest edge) of every triangle, shape (Nt,)."""
+    return _edge_lengths(mesh.p, mesh.t).max(axis=0)
 
 
 def min_angle(mesh: MeshTri) -> float:
