@@ -209,7 +209,8 @@ def _check_p(p):
 
 
 def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
-                        p: float = 2.0, options: PointwiseOptions | None = None):
+                        p: float = 2.0, options: PointwiseOptions | None = None,
+                        rh_extra=None):
     """Node terms η_i² of Lemma 5.22 and their element shares.
 
     Returns a dict with
@@ -220,6 +221,10 @@ def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
     its local vertex k (rows sum to 1 over the patch of each node);
     ``mean`` (Nv,): R̄_i; ``h`` (Nv,): diam(S_i); ``rh`` (Nt, nq): r_h at the points;
     ``seconds_pointwise``.
+
+    ``rh_extra`` (optional, (Nt, nq) at the points of ``triangle_rule(order)`` in
+    the order of :func:`fracfem.pointwise.quadrature_points`) is added to r_h, e.g.
+    −(u^k − u^{k−1})/τ for the parabolic residual f − ∂_tU − (−Δ)ˢu (Theorem 6.18).
     """
     s = check_s(s)
     order = _check_order(order)
@@ -236,6 +241,14 @@ def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
     if not np.all(np.isfinite(fx)):
         raise ValueError("f returned non-finite values at quadrature points")
     rh = fx - lap
+    if rh_extra is not None:
+        rh_extra = np.asarray(rh_extra, dtype=float)
+        if rh_extra.shape != rh.shape:
+            raise ValueError(f"rh_extra must have shape {rh.shape} (elements × "
+                             f"quadrature points), got {rh_extra.shape}")
+        if not np.all(np.isfinite(rh_extra)):
+            raise ValueError("rh_extra has non-finite values")
+        rh = rh + rh_extra
     t_pw = time.perf_counter() - t0
     lam = np.zeros(nt) if lam_fine is None else np.asarray(lam_fine, dtype=float)
     if lam.shape != (nt,):
@@ -264,7 +277,7 @@ def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
 def residual_indicators(fine, u, s, f, lam_fine=None, contact_nodes=None, order: int = 4,
                         *, p: float = 2.0, localisation: str = "patch",
                         boundary: bool = False, options: PointwiseOptions | None = None,
-                        full_output: bool = False):
+                        full_output: bool = False, rh_extra=None):
     """The residual part of η(Δ)² (Section 7) on every fine element Δ.
 
     η(Δ)² = Σ_{i vertex of Δ, i interior, i ∉ C_h}
@@ -289,6 +302,8 @@ def residual_indicators(fine, u, s, f, lam_fine=None, contact_nodes=None, order:
     boundary : also include boundary nodes with r̄_i = λ̄_i = 0 (module doc)
     full_output : also return the dict of :func:`node_residual_terms` with the
         admitted nodes (key ``nodes``)
+    rh_extra : optional (Nt, nq) values added to r_h at the quadrature points
+        (:func:`node_residual_terms`)
 
     Returns
     -------
@@ -296,7 +311,8 @@ def residual_indicators(fine, u, s, f, lam_fine=None, contact_nodes=None, order:
     """
     if localisation not in LOCALISATIONS:
         raise ValueError(f"localisation={localisation!r} must be one of {LOCALISATIONS}")
-    res = node_residual_terms(fine, u, s, f, lam_fine, order=order, p=p, options=options)
+    res = node_residual_terms(fine, u, s, f, lam_fine, order=order, p=p, options=options,
+                              rh_extra=rh_extra)
     nv = fine.p.shape[1]
     admitted = np.zeros(nv, dtype=bool)
     admitted[np.asarray(fine.interior_nodes(), dtype=np.int64)] = True
@@ -410,7 +426,7 @@ def _problem_f(obj, f):
 
 def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
              p: float = 2.0, localisation: str = "patch", boundary: bool = False,
-             options: PointwiseOptions | None = None) -> dict:
+             options: PointwiseOptions | None = None, rh_extra=None) -> dict:
     """Indicators of Algorithm B for a :class:`fracfem.vi.MixedProblem`.
 
     η(Δ)² = (residual term of :func:`residual_indicators`)
@@ -427,7 +443,7 @@ def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
         patch lies in coarse elements with λ_H < 0 (nodes *inside* the contact
         region; nodes on the free boundary keep their term, where λ_H jumps and the
         error concentrates); for friction C_h = ∅
-    p, localisation, boundary, options : see :func:`residual_indicators`
+    p, localisation, boundary, options, rh_extra : see :func:`residual_indicators`
 
     Returns
     -------
@@ -462,7 +478,7 @@ def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
     res_eta2, det = residual_indicators(fine, u, prob.disc.s, f, lam_fine, contact_nodes,
                                         order, p=p, localisation=localisation,
                                         boundary=boundary, options=options,
-                                        full_output=True)
+                                        full_output=True, rh_extra=rh_extra)
     t1 = time.perf_counter()
     ct = contact_terms(prob, u, lam)
     # round-off can leave Lemma 5.21 terms at −1e−17; they are ≥ 0 in exact arithmetic

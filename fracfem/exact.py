@@ -13,6 +13,10 @@ __all__ = [
     "disk_solution",
     "disk_energy",
     "bubble_laplacian",
+    "bubble",
+    "bubble_energy",
+    "heat_solution",
+    "heat_source",
 ]
 
 
@@ -55,3 +59,31 @@ def bubble_laplacian(x: np.ndarray, s: float) -> np.ndarray:
     s = check_s(s)
     r2 = np.sum(np.asarray(x) ** 2, axis=0)
     return 2.0 ** (2 * s) * gamma(2 + s) * gamma(1 + s) * (1.0 - (1.0 + s) * r2)
+
+
+def bubble(x: np.ndarray, s: float) -> np.ndarray:
+    """w(x) = (1−|x|²)_+^{1+s}, the profile of the manufactured heat solution."""
+    s = check_s(s)
+    r2 = np.sum(np.asarray(x) ** 2, axis=0)
+    return np.clip(1.0 - r2, 0.0, None) ** (1.0 + s)
+
+
+def bubble_energy(s: float) -> float:
+    """a(w, w) = ∫ w (−Δ)^s w = 2πK/((2+s)(3+s)), K = 2^{2s}Γ(2+s)Γ(1+s).
+
+    With ρ = |x|²: π K ∫₀¹ (1−ρ)^{1+s}(1 − (1+s)ρ) dρ
+    = π K (1/(2+s) − (1+s)/((2+s)(3+s))) = 2πK/((2+s)(3+s)).
+    """
+    s = check_s(s)
+    K = 2.0 ** (2 * s) * gamma(2 + s) * gamma(1 + s)
+    return 2.0 * np.pi * K / ((2.0 + s) * (3.0 + s))
+
+
+def heat_solution(x: np.ndarray, t: float, s: float) -> np.ndarray:
+    """u(x, t) = e^{−t} (1−|x|²)_+^{1+s}: solves u_t + (−Δ)^s u = heat_source."""
+    return np.exp(-t) * bubble(x, s)
+
+
+def heat_source(x: np.ndarray, t: float, s: float) -> np.ndarray:
+    """f(x, t) = e^{−t}((−Δ)^s w − w) in the unit disk, w = :func:`bubble`."""
+    return np.exp(-t) * (bubble_laplacian(x, s) - bubble(x, s))

@@ -1,0 +1,347 @@
+"""DG(0) time stepping, space-time indicators and Algorithm C (fracfem.parabolic).
+
+Manufactured solution u = e^{−t} w, w = (1−|x|²)^{1+s}, s = 1/2, T = 1, error in
+L²(0, T; energy norm) computed exactly in time (measured when these tests were
+written):
+
+* τ → 0 on disk_uniform(3) (113 free nodes): errors 0.1502, 0.0862, 0.0539,
+  0.0405, 0.0360, 0.0347 for τ = 1/2 … 1/64, space floor e_h = 0.03421 (τ = 1/1024).
+  Raw orders 0.80, 0.68, 0.41, … fall as the space error takes over; the time
+  part e_τ = √(e² − e_h²) has orders 0.89, 0.93, 0.94, 0.94, 0.93 (on
+  disk_uniform(4): 0.89, 0.93, 0.96, 0.97, 0.96), i.e. first order in τ.
+* h → 0 with τ = 1/256: errors 0.0730, 0.0343, 0.0144 on disk_uniform(2, 3, 4):
+  orders 1.09, 1.25 in h — the same as the elliptic Galerkin error of w itself
+  (1.09, 1.26, 1.35 up to disk_uniform(5)), pre-asymptotic towards 1.5
+  (w ∈ H^{2−ε}(R²)... the P1 rate in H^s is min(2 − s, 1.5) = 1.5 for s = 1/2).
+"""
+from functools import lru_cache
+
+import numpy as np
+import pytest
+
+from fracfem import assembly, exact, laplace, meshes, parabolic, vi
+
+S = 0.5
+
+
+def chi(x):
+    return 1.0 - 4.0 * np.sum(np.asarray(x) ** 2, axis=0)
+
+
+def ex5_u0(x):
+    r = np.sqrt(np.sum(np.asarray(x) ** 2, axis=0))
+    return (r - 1.0) * (r - 0.6)
+
+
+@lru_cache(maxsize=None)
+def heat_stepper(level, s=S):
+    return parabolic.Stepper(laplace.discretise(meshes.disk_uniform(level), s, 0.0))
+
+
+@lru_cache(maxsize=None)
+def mixed_stepper(kind, level, s=S, F=0.1, far=False):
+    coarse = meshes.disk_uniform(level)
+    if kind == "obstacle":
+        obstacle = (lambda x: -10.0 + 0.0 * x[0]) if far else chi
+        prob = vi.mixed_problem("obstacle", coarse, s, 0.0, chi=obstacle)
+    else:
+        prob = vi.mixed_problem("friction", coarse, s, 0.0, F=F)
+    return parabolic.Stepper(prob)
+
+
+# ------------------------------------------------------------ manufactured solution
+
+
+def manufactured_error(st, n, T=1.0, s=S):
+    """‖u − u_hτ‖_{L²(0,T; a)}, exact in time (u^k constant on I_k)."""
+    disc = st.disc
+    aw = assembly.load_vector(disc.mesh, lambda x: exact.bubble_laplacian(x, s))[disc.free]
+    ww = exact.bubble_energy(s)
+    err2 = 0.0
+    for step in parabolic.time_steps(st, lambda x: exact.bubble(x, s), T=T, tau=T / n,
+                                     f=lambda x, t: exact.heat_source(x, t, s)):
+        if step.k == 0:
+            continue
+        a, b = step.t - step.tau, step.t
+        u = step.u[disc.free]
+        i2 = 0.5 * (np.exp(-2 * a) - np.exp(-2 * b))
+        i1 = np.exp(-a) - np.exp(-b)
+        err2 += ww * i2 - 2.0 * (aw @ u) * i1 + step.tau * (u @ (disc.A @ u))
+    assert err2 > 0
+    return np.sqrt(err2)
+
+
+def test_bubble_energy_closed_form():
+    from scipy.integrate import quad
+
+    for s in (0.2, 0.5, 0.8):
+        val, _ = quad(lambda r: 2 * np.pi * r * exact.bubble(np.array([r, 0.0]), s)
+                      * exact.bubble_laplacian(np.array([r, 0.0]), s), 0, 1,
+                      epsabs=1e-13, epsrel=1e-13)
+        assert exact.bubble_energy(s) == pytest.approx(val, rel=1e-10)
+
+
+def test_manufactured_source_satisfies_the_equation():
+    # u_t + (−Δ)^s u = f for u = e^{−t} w, pointwise inside the disk
+    x = np.array([[0.1, -0.5, 0.3], [0.2, 0.4, -0.7]])
+    for t in (0.0, 0.7):
+        ut = -exact.heat_solution(x, t, S)
+        lap = np.exp(-t) * exact.bubble_laplacian(x, S)
+        np.testing.assert_allclose(ut + lap, exact.heat_source(x, t, S), rtol=1e-14)
+
+
+def test_first_order_in_tau():
+    st = heat_stepper(3)
+    e = np.array([manufactured_error(st, n) for n in (2, 4, 8, 16, 32, 64)])
+    eh = manufactured_error(st, 1024)
+    assert np.all(np.diff(e) < 0) and e[-1] > eh                 # monotone, above floor
+    np.testing.assert_allclose(e[0], 0.1502, rtol=2e-3)
+    np.testing.assert_allclose(eh, 0.03421, rtol=2e-3)
+    raw = np.log2(e[:-1] / e[1:])
+    assert 0.75 < raw[0] < 1.05                                  # time error dominates
+    assert np.all(np.diff(raw) < 0)                              # then the space floor
+    et = np.sqrt(e ** 2 - eh ** 2)
+    orders = np.log2(et[:-1] / et[1:])
+    assert np.all((orders > 0.85) & (orders < 1.05)), orders
+
+
+def test_convergence_in_h():
+    e = np.array([manufactured_error(heat_stepper(level), 256) for level in (2, 3, 4)])
+    np.testing.assert_allclose(e, [0.0730, 0.0343, 0.0144], rtol=1e-2)
+    orders = np.log2(e[:-1] / e[1:])
+    assert np.all((orders > 1.0) & (orders < 1.5)), orders
+    assert orders[1] > orders[0]                                 # towards 1.5
+
+
+def test_time_dependent_load_uses_the_time_mean():
+    # f(x, t) = t: f̄_k = (t_{k−1} + t_k)/2 exactly (Gauss); compare with a
+    # time-independent load of that value on one step
+    st = heat_stepper(2)
+    a = list(parabolic.time_steps(st, 0.0, times=[0.2, 0.5], f=lambda x, t: t + 0 * x[0]))
+    b = list(parabolic.time_steps(st, 0.0, times=[0.2, 0.5], f=0.35))
+    c = list(parabolic.time_steps(st, 0.0, times=[0.2, 0.5], f=lambda x: 0.35 + 0 * x[0]))
+    np.testing.assert_allclose(a[1].u, b[1].u, rtol=1e-13, atol=1e-15)
+    np.testing.assert_allclose(c[1].u, b[1].u, rtol=1e-13, atol=1e-15)
+    assert np.max(np.abs(b[1].u)) > 0
+
+
+def test_source_signature_convention():
+    assert parabolic.Source(lambda x, t: x[0]).time_dependent
+    assert not parabolic.Source(lambda x: x[0]).time_dependent
+    assert not parabolic.Source(2.0).time_dependent
+    assert parabolic.Source(np.sin, f_time=False).time_dependent is False
+    with pytest.raises(ValueError, match="f_time"):
+        parabolic.Source(lambda x, t, y: x)
+    with pytest.raises(ValueError, match="f must be"):
+        parabolic.Source("one")
+
+
+# ------------------------------------------------------------ stepping basics
+
+
+def test_initial_projection():
+    st = heat_stepper(3)
+    free = st.free
+    ph1 = parabolic.initial_projection(st, 1.0)
+    b = assembly.load_vector(st.mesh, 1.0)[free]
+    np.testing.assert_allclose(st.M @ ph1[free], b, rtol=1e-12)  # (P_h u₀ − u₀, φ_i) = 0
+    assert np.all(ph1[st.mesh.boundary_nodes()] == 0.0)
+    # an element of V_h is its own projection (array input, all or free nodes)
+    v = ph1 * st.mesh.p[0]
+    np.testing.assert_allclose(parabolic.initial_projection(st, v), v, atol=1e-13)
+    np.testing.assert_allclose(parabolic.initial_projection(st, v[free]), v, atol=1e-13)
+    # the k = 0 record holds it
+    first = next(parabolic.time_steps(st, 1.0, T=1.0, tau=0.5))
+    assert first.k == 0 and first.t == 0.0 and first.lam is None
+    np.testing.assert_allclose(first.u, ph1)
+
+
+def test_uniform_grid_factorises_once():
+    st = parabolic.Stepper(heat_stepper(2).disc)
+    steps = parabolic.solve_parabolic(st, 1.0, T=1.0, tau=0.1)
+    assert len(steps) == 11 and steps[-1].t == pytest.approx(1.0)
+    assert st.n_factorisations == 1
+    parabolic.solve_parabolic(st, 1.0, times=[0, 0.1, 0.3, 0.4, 0.6])  # τ = 0.1, 0.2
+    assert st.n_factorisations == 2
+    # T/τ not an integer: ⌈T/τ⌉ equal steps of length ≤ τ
+    np.testing.assert_allclose(parabolic.time_grid(T=1.0, tau=0.3), [0, .25, .5, .75, 1])
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(T=1.0, tau=0.0), "tau"), (dict(T=1.0, tau=-1.0), "tau"),
+    (dict(T=1.0, tau=np.inf), "tau"), (dict(T=1.0, tau=np.nan), "tau"),
+    (dict(T=0.0, tau=0.1), "T"), (dict(T=-1.0, tau=0.1), "T"),
+    (dict(T=np.inf, tau=0.1), "T"), (dict(T=1.0), "tau"), (dict(), "times"),
+    (dict(times=[0.0, 0.5, 0.5]), "strictly increasing"),
+    (dict(times=[0.0, 1.0, 0.5]), "strictly increasing"),
+    (dict(times=[0.0]), "at least 2"), (dict(times=[0.0, np.nan]), "finite"),
+    (dict(times=[0, 1], T=1.0, tau=0.5), "either"),
+    (dict(T=1.0, tau=0.5, solver="newton"), "solver"),
+    (dict(T=1.0, tau=0.5, time_quadrature=0), "time_quadrature"),
+])
+def test_bad_time_arguments(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        list(parabolic.time_steps(heat_stepper(2), 1.0, **kwargs))
+
+
+@pytest.mark.parametrize("u0, match", [
+    (np.nan, "u0"), (np.inf, "u0"), (np.zeros(3), "u0 must be"),
+    (lambda x: np.nan * x[0], "u0 must be finite"),
+])
+def test_bad_initial_values(u0, match):
+    with pytest.raises(ValueError, match=match):
+        list(parabolic.time_steps(heat_stepper(2), u0, T=1.0, tau=0.5))
+
+
+def test_bad_problem_type():
+    with pytest.raises(TypeError, match="MixedProblem"):
+        parabolic.Stepper(np.eye(3))
+
+
+# ------------------------------------------------------------ Lemma 4.5: stability
+
+
+@pytest.mark.parametrize("tau", [1e-6, 1e-3, 1.0, 1e3])
+def test_unconstrained_energy_stability(tau):
+    """f = 0: ‖u^k‖_M and a(u^k, u^k) non-increasing; the DG(0) energy identity
+    ½‖u^M‖² + Σ_k (½‖u^k − u^{k−1}‖² + τ a(u^k, u^k)) = ½‖P_h u₀‖² (Lemma 4.5 with
+    equality for the discrete solution)."""
+    st = heat_stepper(3)
+    free, A, M = st.free, st.disc.A, st.M
+    steps = parabolic.solve_parabolic(st, 1.0, T=12 * tau, tau=tau)
+    u = [s.u[free] for s in steps]
+    mass = np.array([v @ (M @ v) for v in u])
+    energy = np.array([v @ (A @ v) for v in u])
+    assert np.all(np.diff(mass) <= 1e-13 * mass[:-1])
+    assert np.all(np.diff(energy) <= 1e-13 * energy[:-1])
+    assert mass[-1] < mass[0]
+    lhs = 0.5 * mass[-1] + sum(0.5 * (b - a) @ (M @ (b - a)) + tau * (b @ (A @ b))
+                               for a, b in zip(u[:-1], u[1:]))
+    assert lhs == pytest.approx(0.5 * mass[0], rel=1e-11)
+
+
+def _check_step_kkt(st, step, prev, tol=1e-9):
+    """λ ∈ Λ_H, feasibility Bᵀu − g ≥ 0 (obstacle), complementarity, relative to
+    the scale of the step data (|B|ᵀ|u^{k−1}|, |B|ᵀ|u^k|, g)."""
+    cs = st.cset
+    u = step.u[st.free]
+    y = cs.B.T @ u - cs.g
+    lam = step.lam
+    absB = abs(cs.B).T                              # no cancellation: round-off scale
+    y_scale = max((absB @ np.abs(prev.u[st.free])).max(), (absB @ np.abs(u)).max(),
+                  np.abs(cs.g).max(), 1e-300)
+    lam_scale = max(np.max(np.abs(lam)), np.max(np.abs(cs.lower[np.isfinite(cs.lower)]),
+                                                initial=0.0), 1e-300)
+    if cs.kind in ("obstacle", "thin_obstacle"):
+        assert np.all(lam <= 0)
+        assert y.min() >= -tol * y_scale
+        assert np.max(np.abs(lam * y)) <= tol * lam_scale * y_scale
+    else:  # friction: |λ| ≤ F; where |λ| < F (stick) y = 0; λ_j y_j = F_j |y_j|
+        F = cs.upper
+        assert np.all(np.abs(lam) <= F + 1e-14)
+        inner = np.abs(lam) < F * (1 - 1e-8)
+        assert np.max(np.abs(y[inner]), initial=0.0) <= tol * y_scale
+        np.testing.assert_allclose(lam * y, F * np.abs(y), rtol=0,
+                                   atol=tol * lam_scale * y_scale)
+
+
+@pytest.mark.parametrize("u0", [1.0, 2.0])
+@pytest.mark.parametrize("tau", [1e-3, 0.05, 1.0])
+def test_obstacle_stepping(u0, tau):
+    """Obstacle χ = 1 − 4|x|², f = 0.  Theory with the constraint: testing with
+    v = u^k gives the identity ½‖u^k‖² + ½‖u^k − u^{k−1}‖² + τ a(u^k,u^k) +
+    τ λ^k·g = ½‖u^{k−1}‖² (λ·Bᵀu = λ·g by complementarity), and λ·g has no sign,
+    so Lemma 4.5 does not bound ‖u^k‖ by ‖u^{k−1}‖ any more.  What holds: u^k
+    minimises ‖v − u^{k−1}‖²_M/(2τ) + ½a(v,v) over K_h = {Bᵀv ≥ g}, so for feasible
+    u^{k−1} the energy decreases: ½a(u^k,u^k) + ‖u^k − u^{k−1}‖²_M/(2τ) ≤ ½a(u^{k−1},u^{k−1})."""
+    st = mixed_stepper("obstacle", 2)
+    free, A, M, cs = st.free, st.disc.A, st.M, st.cset
+    steps = parabolic.solve_parabolic(st, u0, T=10 * tau, tau=tau)
+    assert (cs.B.T @ steps[0].u[free] - cs.g).min() > 0          # P_h u₀ ∈ K_h here
+    for prev, cur in zip(steps[:-1], steps[1:]):
+        _check_step_kkt(st, cur, prev)
+        a, b = prev.u[free], cur.u[free]
+        ident = (0.5 * b @ (M @ b) + 0.5 * (b - a) @ (M @ (b - a)) + tau * b @ (A @ b)
+                 + tau * cur.lam @ cs.g)
+        assert ident == pytest.approx(0.5 * a @ (M @ a), rel=1e-10)
+        lhs = 0.5 * b @ (A @ b) + (b - a) @ (M @ (b - a)) / (2 * tau)
+        assert lhs <= 0.5 * a @ (A @ a) * (1 + 1e-12)
+    # for these data (u₀ ≥ χ) the mass norm still falls; contact happens
+    mass = [s.u[free] @ (M @ s.u[free]) for s in steps]
+    assert np.all(np.diff(mass) < 0)
+    if tau == 1.0:
+        assert np.count_nonzero(steps[-1].lam < 0) > 0
+
+
+def test_obstacle_can_raise_the_mass_norm():
+    """u₀ = 0 below χ: the obstacle pushes u up, ‖u^k‖_M grows from 0 — the
+    λ·g term of the identity is what Lemma 4.5 alone does not see."""
+    st = mixed_stepper("obstacle", 2)
+    steps = parabolic.solve_parabolic(st, 0.0, T=0.3, tau=0.1)
+    mass = [s.u[st.free] @ (st.M @ s.u[st.free]) for s in steps]
+    assert mass[0] == 0.0 and mass[1] > 0 and np.any(steps[1].lam < 0)
+    for prev, cur in zip(steps[:-1], steps[1:]):
+        _check_step_kkt(st, cur, prev)
+
+
+@pytest.mark.parametrize("tau", [1e-3, 0.05, 1.0])
+def test_friction_stepping(tau):
+    """Friction F = 0.1, u₀ of Example 5 (s = 0.6): λ^k·Bᵀu^k = j_H(u^k) =
+    Σ F_j |(Bᵀu^k)_j| ≥ 0, so Lemma 4.5's bound survives: ‖u^k‖_M non-increasing;
+    and the energy ½a + j_H decreases (u^k minimises the step functional)."""
+    st = mixed_stepper("friction", 2, s=0.6)
+    free, A, M, cs = st.free, st.disc.A, st.M, st.cset
+    steps = parabolic.solve_parabolic(st, ex5_u0, T=10 * tau, tau=tau)
+
+    def j(v):
+        return np.sum(cs.upper * np.abs(cs.B.T @ v))
+
+    for prev, cur in zip(steps[:-1], steps[1:]):
+        _check_step_kkt(st, cur, prev)
+        a, b = prev.u[free], cur.u[free]
+        assert cur.lam @ (cs.B.T @ b) == pytest.approx(j(b), rel=1e-9, abs=1e-15)
+        assert b @ (M @ b) <= a @ (M @ a) * (1 + 1e-12)
+        lhs = 0.5 * b @ (A @ b) + j(b) + (b - a) @ (M @ (b - a)) / (2 * tau)
+        assert lhs <= (0.5 * a @ (A @ a) + j(a)) * (1 + 1e-12)
+    lam = steps[1].lam
+    assert np.any(np.abs(lam) >= 0.1 * (1 - 1e-12))               # slip somewhere
+
+
+@pytest.mark.parametrize("kind, u0", [("obstacle", 2.0), ("friction", ex5_u0)])
+def test_pdas_and_uzawa_agree_per_step(kind, u0):
+    st = mixed_stepper(kind, 2)
+    n0 = st.n_factorisations
+    kw = dict(T=0.6, tau=0.1)
+    pd = parabolic.solve_parabolic(st, u0, solver="pdas", **kw)
+    uz = parabolic.solve_parabolic(st, u0, solver="uzawa",
+                                   solver_options=dict(tol=1e-12, maxiter=200_000), **kw)
+    for prev, a, b in zip(pd[:-1], pd[1:], uz[1:]):
+        scale = np.max(np.abs(a.u))
+        assert np.max(np.abs(a.u - b.u)) <= 1e-8 * scale
+        assert np.max(np.abs(a.lam - b.lam)) <= 1e-6 * np.max(np.abs(a.lam))
+        _check_step_kkt(st, b, prev, tol=1e-7)
+    assert st.n_factorisations <= n0 + 1                          # both reuse one τ
+
+
+def test_inactive_obstacle_reproduces_the_heat_equation():
+    st = mixed_stepper("obstacle", 2, far=True)
+    heat = parabolic.Stepper(st.disc)
+    kw = dict(T=1.0, tau=0.1, f=lambda x, t: np.cos(3 * t) * (1 + x[0]))
+    a = parabolic.solve_parabolic(st, 1.0, **kw)
+    b = parabolic.solve_parabolic(heat, 1.0, **kw)
+    for x, y in zip(a[1:], b[1:]):
+        assert np.all(x.lam == 0.0)
+        np.testing.assert_allclose(x.u, y.u, rtol=0, atol=1e-13 * np.abs(y.u).max())
+
+
+def test_thin_problems_step():
+    coarse = meshes.disk_uniform(2)
+    from fracfem import mixed
+    edges = mixed.edges_on_curve(coarse, lambda x: np.abs(x[1]) < 1e-12)
+    prob = vi.mixed_problem("thin_obstacle", coarse, 0.7, 0.0, edges=edges,
+                            height=lambda x: 0.2 + 0 * x[0])
+    st = parabolic.Stepper(prob)
+    steps = parabolic.solve_parabolic(st, 1.0, T=0.5, tau=0.1)
+    for prev, cur in zip(steps[:-1], steps[1:]):
+        _check_step_kkt(st, cur, prev)
+    assert np.any(steps[-1].lam < 0)
