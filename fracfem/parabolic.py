@@ -714,8 +714,9 @@ def space_time_indicators(problem, steps, u0, *, f=0.0, f_time=None, order: int 
         rows.append(step_indicators(st, prev.u, cur, f=f, f_time=f_time, order=order,
                                     **kwargs))
     out = dict(t=np.array([r["t"] for r in rows]), tau=np.array([r["tau"] for r in rows]))
-    for part in ("space", "time", "contact", "total"):
+    for part in ("space", "time", "contact"):
         out[part] = np.array([r[part + "_total"] for r in rows])
+    out["total"] = np.array([r["total"] for r in rows])
     out["initial"] = ini["total"]
     out["eta2_fine"] = ini["eta2_fine"] + np.sum([r["eta2_fine"] for r in rows], axis=0)
     if keep_elements:
