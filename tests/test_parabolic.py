@@ -463,3 +463,143 @@ def test_indicator_argument_checks():
     steps = parabolic.solve_parabolic(thin, 1.0, T=0.1, tau=0.1)
     with pytest.raises(ValueError, match="thin_friction"):
         parabolic.step_indicators(thin, steps[0].u, steps[1])
+
+
+# ------------------------------------------------------------ transfer
+
+
+def test_transfer_is_exact_for_p1_on_a_refinement_and_zero_outside():
+    coarse = meshes.disk_uniform(2)
+    fine = meshes.refine_disk(coarse, np.arange(0, coarse.t.shape[1], 3))
+    lin = lambda x: 0.3 + x[0] - 2 * x[1]  # noqa: E731
+    vals = parabolic.interpolate(coarse, lin(coarse.p), fine.p[:, :coarse.p.shape[1]])
+    np.testing.assert_allclose(vals, lin(coarse.p), atol=1e-13)
+    inside = np.linalg.norm(fine.p, axis=0) < 0.9
+    vals = parabolic.interpolate(coarse, lin(coarse.p), fine.p[:, inside])
+    np.testing.assert_allclose(vals, lin(fine.p[:, inside]), atol=1e-13)
+    el, _ = parabolic.locate_points(coarse, np.array([[2.0, 0.0], [0.0, 0.999]]).T)
+    assert el[0] == -1                                     # outside the disk
+    u = parabolic.transfer(coarse, lin(coarse.p), fine)
+    assert np.all(u[fine.boundary_nodes()] == 0.0)
+
+
+# ------------------------------------------------------------ Algorithm C
+
+
+def _ex4_problem(counter=None):
+    def make(coarse):
+        if counter is not None:
+            counter.append(coarse)
+        return vi.mixed_problem("obstacle", coarse, S, 0.0, chi=chi)
+    return make
+
+
+@lru_cache(maxsize=None)
+def _ex4_run():
+    """Example 4 (ũ₀ = 2) from disk_uniform(1), θ = 1/2, 3 passes (measured:
+    η = 2.380, 1.944, 1.532 with 75, 678, 2745 space-time DOFs)."""
+    calls = []
+    recs = parabolic.algorithm_c(_ex4_problem(calls), meshes.disk_uniform(1), 2.0, T=1.0,
+                                 theta=0.5, iterations=3,
+                                 output_times=(0.0, 0.4, 0.8, 1.0))
+    return recs, calls
+
+
+def test_algorithm_c_reduces_the_estimator():
+    recs, _ = _ex4_run()
+    eta = np.array([r.eta for r in recs])
+    assert np.all(np.diff(eta) < 0), eta
+    np.testing.assert_allclose(eta, [2.380, 1.944, 1.532], rtol=1e-2)
+    assert np.all(np.diff([r.dofs for r in recs]) > 0)
+    for r in recs:
+        assert r.dofs == sum(sl.n_steps * sl.n_free for sl in r.slabs)
+        assert r.eta ** 2 == pytest.approx(sum(r.eta_parts.values()), rel=1e-12)
+        assert len(r.steps["t"]) == sum(sl.n_steps for sl in r.slabs)
+        np.testing.assert_allclose(np.sum(r.steps["total"]) + r.eta_parts["initial"],
+                                   sum(t["total"] for t in r.slab_totals), rtol=1e-12)
+        # prism indicators hold every fine-element contribution
+        assert sum(p.sum() for p in r.prism_eta2) > 0
+        assert set(r.timings) >= {"assemble", "solve", "estimate", "mark", "refine"}
+    assert recs[-1].stop == "iterations" and recs[-1].marked is None
+
+
+def test_algorithm_c_slabs_cover_the_interval_and_refine_locally():
+    recs, calls = _ex4_run()
+    for r in recs:
+        a = np.array([sl.a for sl in r.slabs])
+        b = np.array([sl.b for sl in r.slabs])
+        assert a[0] == 0.0 and b[-1] == 1.0 and np.all(a[1:] == b[:-1]) and np.all(b > a)
+        np.testing.assert_allclose(np.diff(r.steps["t"][r.steps["slab"] == 0]),
+                                   r.slabs[0].tau)
+        for sl in r.slabs:                      # τ ≤ c h^{2s}, c = 1
+            assert sl.tau <= sl.h_max ** (2 * S) * (1 + 1e-12)
+            assert sl.fine.t.shape[1] == 4 * sl.coarse.t.shape[1]
+    for prev, cur in zip(recs[:-1], recs[1:]):
+        assert len(cur.slabs) == len(prev.slabs) + len(prev.bisected)
+    # the first pass marks all 16 elements of disk_uniform(1); the second is local
+    n_old = [sl.coarse.t.shape[1] for sl in recs[1].slabs]
+    assert 0 < sum(m.size for m in recs[1].marked) < sum(n_old)
+    # iteration 1 → 2: slab 0 bisected, slab 1 unmarked keeps its mesh object
+    r1, r2 = recs[1], recs[2]
+    assert r1.bisected == [0] and r1.marked[1].size == 0
+    assert r2.slabs[2].coarse is r1.slabs[1].coarse
+    n = r1.slabs[0].coarse.t.shape[1]
+    assert n < r2.slabs[0].coarse.t.shape[1] < 4 * n
+    # bisected halves keep the number of steps: τ halves
+    assert r2.slabs[0].tau == pytest.approx(0.5 * r1.slabs[0].tau)
+    # assembled once per distinct mesh per pass, unchanged meshes reused
+    assert len(calls) == len({id(c) for c in calls})
+
+
+def test_algorithm_c_outputs():
+    recs, _ = _ex4_run()
+    r = recs[-1]
+    assert sorted(r.outputs) == [0.0, 0.4, 0.8, 1.0]
+    o0 = r.outputs[0.0]
+    assert o0["lam"] is None and o0["t_step"] == 0.0
+    st = parabolic.Stepper(vi.mixed_problem("obstacle", o0["coarse"], S, 0.0, chi=chi))
+    np.testing.assert_allclose(o0["u"], parabolic.initial_projection(st, 2.0), rtol=1e-12)
+    for t in (0.4, 0.8, 1.0):
+        o = r.outputs[t]
+        sl = r.slabs[o["slab"]]
+        assert o["t_step"] - sl.tau < t <= o["t_step"] + 1e-12
+        assert o["u"].shape == (o["mesh"].p.shape[1],)
+        assert o["lam"].shape == (o["coarse"].t.shape[1],) and np.all(o["lam"] <= 0)
+    assert r.final["t_step"] == pytest.approx(1.0)
+    np.testing.assert_allclose(r.final["u"], r.outputs[1.0]["u"])
+    # ũ₀ = 2 reaches the obstacle (χ = 1 − 4|x|²) only after some time
+    assert 0.3 < r.first_contact_time < 1.0
+    assert np.count_nonzero(r.final["lam"] < 0) > 0
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(theta=0.0), "θ"), (dict(theta=1.0), "θ"), (dict(theta=np.nan), "θ"),
+    (dict(theta="0.5"), "θ"), (dict(iterations=0), "iterations"),
+    (dict(T=0.0), "T"), (dict(c_tau=-1.0), "c_tau"), (dict(marking="max"), "marking"),
+    (dict(output_times=(0.5, 2.0)), "output_times"), (dict(solver="cg"), "solver"),
+    (dict(bisect_fraction=0.0), "bisect_fraction"),
+])
+def test_algorithm_c_bad_arguments(kwargs, match):
+    args = dict(T=1.0, theta=0.5, iterations=2)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        parabolic.algorithm_c(_ex4_problem(), meshes.disk_uniform(1), 2.0, **args)
+    with pytest.raises(ValueError, match="u0"):
+        parabolic.algorithm_c(_ex4_problem(), meshes.disk_uniform(1), np.ones(3),
+                              T=1.0, theta=0.5, iterations=1)
+
+
+def test_algorithm_c_friction_and_doerfler():
+    make = lambda c: vi.mixed_problem("friction", c, 0.6, 0.0, F=0.1)  # noqa: E731
+    recs = parabolic.algorithm_c(make, meshes.disk_uniform(1), ex5_u0, T=1.0, theta=0.5,
+                                 iterations=2, marking="doerfler", output_times=(0.2,))
+    m = recs[0].marked
+    eta2 = np.concatenate(recs[0].prism_eta2)
+    chosen = np.concatenate([p[i] for p, i in zip(recs[0].prism_eta2, m)])
+    assert chosen.sum() >= 0.5 * eta2.sum() * (1 - 1e-12)       # Dörfler bulk
+    assert recs[1].eta < recs[0].eta
+    assert recs[0].first_contact_time is None
+    assert np.all(recs[1].steps["n_active"] >= 0)
+    with pytest.raises(TypeError, match="MixedProblem"):
+        parabolic.algorithm_c(lambda c: laplace.discretise(meshes.refine_disk(c), S),
+                              meshes.disk_uniform(1), 1.0, T=1.0, theta=0.5, iterations=1)
