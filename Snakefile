@@ -10,6 +10,7 @@ configfile: "config.yaml"
 include: "workflow/rules/common.smk"
 include: "workflow/rules/example1.smk"
 include: "workflow/rules/vi.smk"
+include: "workflow/rules/parabolic.smk"
 include: "workflow/rules/report.smk"
 
 
@@ -26,5 +27,18 @@ rule all:
         rules.fig04.output,
         rules.fig08.output,
         rules.vi_runs_md.output,
+        rules.fig05.output,
+        rules.fig06.output,
+        f"{OUT}/fig07-ex2-error.png",
+        f"{OUT}/fig09-ex3-error.png",
+        rules.reference_table.output,
+        rules.elliptic_error_vs_time.output,
+        rules.fig10.output,
+        rules.fig14.output,
+        f"{OUT}/fig13-ex4-error.png",
+        f"{OUT}/fig15-ex5-error.png",
+        rules.fig11.output,
+        rules.fig12.output,
+        rules.parabolic_summary.output,
         expand(rules.thin_demo.output, kind=["obstacle", "friction"]),
     default_target: True

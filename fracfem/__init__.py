@@ -7,6 +7,10 @@ from .laplace import Discretisation, discretise, solve_laplace
 from .meshes import (disk_graded, disk_graded_rings, disk_uniform, lshape,
                      refine_disk, square)
 
+from .parabolic import (IterationRecord, Slab, Stepper, TimeStep, algorithm_c,
+                        algorithm_c_steps, initial_projection, solve_parabolic,
+                        space_time_indicators, time_steps)
+
 __version__ = "0.1.0"
 
 __all__ = [
@@ -14,4 +18,6 @@ __all__ = [
     "c2s", "disk_energy", "disk_solution", "disk_solution_constant",
     "Discretisation", "discretise", "solve_laplace",
     "disk_uniform", "disk_graded", "disk_graded_rings", "square", "lshape", "refine_disk",
+    "Stepper", "TimeStep", "time_steps", "solve_parabolic", "initial_projection",
+    "space_time_indicators", "algorithm_c", "algorithm_c_steps", "Slab", "IterationRecord",
 ]

@@ -738,92 +738,11 @@ def space_time_indicators(problem, steps, u0, *, f=0.0, f_time=None, order: int 
 
 
 # ------------------------------------------------------------------ transfer
-
-
-def _element_maps(mesh):
-    """Vertex 0 and the inverse Jacobian of every element (affine P1 maps)."""
-    p, t = mesh_arrays(mesh)
-    p0 = p[t[:, 0]]
-    J = np.stack([p[t[:, 1]] - p0, p[t[:, 2]] - p0], axis=2)       # (Nt, 2, 2)
-    return p0, np.linalg.inv(J), t
-
-
-def _barycentric(p0, Jinv, el, x):
-    """Barycentric coordinates (N, 3) of points x (N, 2) in elements el (N,)."""
-    xi = np.einsum("nij,nj->ni", Jinv[el], x - p0[el])
-    return np.column_stack([1.0 - xi[:, 0] - xi[:, 1], xi[:, 0], xi[:, 1]])
-
-
-def locate_points(mesh, points, *, tol: float = 1e-10, candidates: int = 12):
-    """Element containing each point, and its barycentric coordinates.
-
-    ``points`` (2, N).  A KD-tree of the element centroids proposes the nearest
-    ``candidates`` elements; points not found among them are searched in all
-    elements (in blocks).  Returns (elements (N,) int, −1 for points outside the
-    mesh polygon (barycentric coordinates ≥ −tol count as inside), barycentric
-    coordinates (N, 3), 0 where outside).
-    """
-    from scipy.spatial import cKDTree
-
-    x = np.asarray(points, dtype=float)
-    if x.ndim != 2 or x.shape[0] != 2:
-        raise ValueError(f"points must have shape (2, N), got {x.shape}")
-    x = x.T
-    p0, Jinv, t = _element_maps(mesh)
-    p, _ = mesh_arrays(mesh)
-    nt, n = len(t), len(x)
-    el = np.full(n, -1, dtype=np.int64)
-    bary = np.zeros((n, 3))
-    k = min(candidates, nt)
-    _, cand = cKDTree(p[t].mean(axis=1)).query(x, k)
-    cand = cand.reshape(n, k)
-    best = np.full(n, -np.inf)
-    for j in range(k):
-        b = _barycentric(p0, Jinv, cand[:, j], x)
-        m = b.min(axis=1)
-        better = (m > best) & (best < -tol)          # keep the first containing one
-        el = np.where(better, cand[:, j], el)
-        bary[better] = b[better]
-        best = np.where(better, m, best)
-    missing = np.flatnonzero(best < -tol)
-    block = max(1, 2_000_000 // nt)                                # bounded memory
-    for start in range(0, missing.size, block):
-        idx = missing[start:start + block]
-        xs = x[idx]                                                # (B, 2)
-        xi = np.einsum("tij,btj->bti", Jinv, xs[:, None, :] - p0[None])
-        b = np.concatenate([1.0 - xi.sum(axis=2, keepdims=True), xi], axis=2)
-        m = b.min(axis=2)                                          # (B, Nt)
-        arg = m.argmax(axis=1)
-        bary[idx] = b[np.arange(len(idx)), arg]
-        el[idx] = arg
-        best[idx] = m[np.arange(len(idx)), arg]
-    outside = best < -tol
-    el[outside] = -1
-    bary[outside] = 0.0
-    return el, bary
-
-
-def interpolate(mesh, u, points, **kwargs) -> np.ndarray:
-    """Values at ``points`` (2, N) of the P1 function u (nodal, all nodes of
-    ``mesh``), extended by 0 outside the mesh polygon."""
-    u = np.asarray(u, dtype=float)
-    if u.shape != (mesh.p.shape[1],):
-        raise ValueError(f"u must have one value per node of mesh ({mesh.p.shape[1]},), "
-                         f"got {u.shape}")
-    el, bary = locate_points(mesh, points, **kwargs)
-    _, _, t = _element_maps(mesh)
-    vals = np.einsum("nk,nk->n", bary, u[t[np.maximum(el, 0)]])
-    return np.where(el >= 0, vals, 0.0)
-
-
-def transfer(mesh_from, u_from, mesh_to) -> np.ndarray:
-    """Nodal interpolation of a P1 function onto another mesh: the values at the
-    nodes of ``mesh_to`` (0 outside the old polygon and on ∂Ω of the new mesh)."""
-    if mesh_to is mesh_from:
-        return np.array(u_from, dtype=float)
-    u = interpolate(mesh_from, u_from, mesh_to.p)
-    u[mesh_to.boundary_nodes()] = 0.0
-    return u
+# point location and interpolation live in fracfem.transfer (shared with the
+# error measure of the parabolic examples)
+from .transfer import interpolate_at as interpolate  # noqa: E402
+from .transfer import locate as locate_points  # noqa: E402
+from .transfer import transfer  # noqa: E402,F401
 
 
 # ------------------------------------------------------------------ Algorithm C
@@ -867,6 +786,7 @@ class IterationRecord:
     bisected: list | None = None     # indices (this iteration) of bisected slabs
     timings: dict = field(default_factory=dict)  # assemble, solve, estimate, mark, refine
     stop: str | None = None
+    pieces: list | None = None       # keep_steps=True: (t_{k−1}, t_k, fine mesh, u^k)
 
 
 def _snapshot(t_out, step, slab_index, st):
@@ -890,7 +810,8 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                       n_min: int = 1, bisect_fraction: float = 0.5,
                       time_quadrature: int = 3, solver_options: dict | None = None,
                       estimator_options: dict | None = None,
-                      callback=None) -> Iterator[IterationRecord]:
+                      callback=None, keep_steps: bool = False
+                      ) -> Iterator[IterationRecord]:
     """Algorithm C as a generator of :class:`IterationRecord` (see :func:`algorithm_c`)."""
     from .adaptive import MARKINGS, _check_theta
     from .meshes import element_diameters, refine_disk
@@ -927,6 +848,7 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                     n_active=[])
         slab_totals, prism, snaps = [], [], {}
         first_contact = None
+        pieces = [] if keep_steps else None
         ini_total = 0.0
         u_end, mesh_end, last = None, None, None
         for j, slab in enumerate(slabs):
@@ -990,6 +912,9 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                     else:
                         n_act = int(np.count_nonzero(np.abs(step.lam) < st.cset.upper))
                     rows["n_active"].append(n_act)
+                    if keep_steps:
+                        pieces.append((float(times[step.k - 1]), float(step.t), st.mesh,
+                                       np.array(step.u)))
                     for t_out in outs:
                         if t_out not in snaps and step.t >= t_out - 1e-12 * T:
                             snaps[t_out] = _snapshot(t_out, step, j, st)
@@ -1008,7 +933,7 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
             eta_parts=parts, steps={k: np.asarray(v) for k, v in rows.items()},
             slab_totals=slab_totals, prism_eta2=prism, outputs=snaps,
             final=_snapshot(T, last[0], last[1], last[2]),
-            first_contact_time=first_contact, timings=tim)
+            first_contact_time=first_contact, timings=tim, pieces=pieces)
         if tol is not None and eta <= tol:
             rec.stop = "tol"
         elif it == iterations - 1:

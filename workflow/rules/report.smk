@@ -4,6 +4,8 @@
 rule rates:
     input:
         ex1=rules.ex1_table.output.table,
+        vi=[f"{RES}/vi/{p}/errors.csv" for p in ELLIPTIC_VI],
+        para=[f"{RES}/para/{p}/errors.csv" for p in PARA_PROBLEMS],
     output:
         csv=f"{OUT}/rates.csv",
         md=f"{OUT}/rates.md",

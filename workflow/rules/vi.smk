@@ -110,3 +110,115 @@ rule thin_demo:
         f"{RES}/logs/thin_demo_{{kind}}.log",
     script:
         "../scripts/fig_thin.py"
+
+
+# ---------------------------------------------------------------- adaptive series and errors
+ELLIPTIC_VI = ["ex2"] + [f"ex3-{v}" for v in EX3["variants"]]
+
+
+rule vi_adaptive:
+    output:
+        table=f"{RES}/vi/{{problem}}/adaptive/steps.csv",
+        npz=f"{RES}/vi/{{problem}}/adaptive/meshes.npz",
+    log:
+        f"{RES}/logs/vi/{{problem}}_adaptive.log",
+    benchmark:
+        f"{RES}/benchmarks/vi/{{problem}}_adaptive.tsv"
+    wildcard_constraints:
+        problem=r"ex2|ex3-\w+",
+    params:
+        config={k: config[k] for k in ("example1", "example2", "example3", "vi_adaptive",
+                                       "solver", "quadrature")},
+    threads: 2
+    script:
+        "../scripts/vi_adaptive.py"
+
+
+rule vi_errors:
+    input:
+        series=f"{RES}/vi/{{problem}}/table.csv",
+        adaptive=f"{RES}/vi/{{problem}}/adaptive/steps.csv",
+    output:
+        csv=f"{RES}/vi/{{problem}}/errors.csv",
+        json=f"{RES}/vi/{{problem}}/reference.json",
+    log:
+        f"{RES}/logs/vi/{{problem}}_errors.log",
+    wildcard_constraints:
+        problem=r"ex2|ex3-\w+",
+    params:
+        config={k: config[k] for k in ("example3", "reference")},
+    script:
+        "../scripts/vi_errors.py"
+
+
+rule reference_table:
+    input:
+        refs=[f"{RES}/vi/{p}/reference.json" for p in ELLIPTIC_VI],
+        errors=[f"{RES}/vi/{p}/errors.csv" for p in ELLIPTIC_VI],
+        ex1=f"{RES}/ex1/table.csv",
+    output:
+        md=f"{OUT}/elliptic-errors.md",
+    params:
+        family=config["reference"]["family"],
+    log:
+        f"{RES}/logs/reference_table.log",
+    script:
+        "../scripts/reference_table.py"
+
+
+rule fig05:
+    input:
+        npz=f"{RES}/vi/ex2/adaptive/meshes.npz",
+    output:
+        png=f"{OUT}/fig05-ex2-solution-adaptive.png",
+        pdf=f"{OUT}/fig05-ex2-solution-adaptive.pdf",
+    params:
+        title=lambda w: "Example 2, adaptive: $u_h$ ({triangles} triangles)",
+    log:
+        f"{RES}/logs/fig05.log",
+    script:
+        "../scripts/fig04.py"
+
+
+rule fig06:
+    input:
+        npz=f"{RES}/vi/ex2/adaptive/meshes.npz",
+    output:
+        png=f"{OUT}/fig06-ex2-adaptive-meshes.png",
+        pdf=f"{OUT}/fig06-ex2-adaptive-meshes.pdf",
+    log:
+        f"{RES}/logs/fig06.log",
+    script:
+        "../scripts/fig06.py"
+
+
+rule fig_vi_error:
+    input:
+        csv=lambda w: [f"{RES}/vi/{p}/errors.csv"
+                       for p in (["ex2"] if w.num == "07" else
+                                 [f"ex3-{v}" for v in EX3["variants"]])],
+    output:
+        png=f"{OUT}/fig{{num}}-{{slug}}.png",
+        pdf=f"{OUT}/fig{{num}}-{{slug}}.pdf",
+    wildcard_constraints:
+        num="07|09",
+        slug="ex2-error|ex3-error",
+    log:
+        f"{RES}/logs/fig{{num}}-{{slug}}.log",
+    script:
+        "../scripts/fig_vi_error.py"
+
+
+rule elliptic_error_vs_time:
+    input:
+        ex1=f"{RES}/ex1/table.csv",
+        vi=[f"{RES}/vi/{p}/errors.csv" for p in ELLIPTIC_VI],
+    output:
+        png=f"{OUT}/extra-elliptic-error-vs-time.png",
+        md=f"{OUT}/elliptic-error-vs-time.md",
+    params:
+        s=EX1["s"],
+    log:
+        f"{RES}/logs/elliptic_error_vs_time.log",
+    script:
+        "../scripts/elliptic_time.py"

@@ -1,4 +1,4 @@
-"""Figure 4: Example 2 solution on a uniform mesh, with the contact set."""
+"""Figures 4 and 5: Example 2 solution (uniform / adaptive mesh) with the contact set."""
 import sys
 from pathlib import Path
 
@@ -8,8 +8,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 from plotstyle import multiplier_panel, save, solution_figure  # noqa: E402
 
 
-def main(npz, png, pdf):
-    d, fig, ax2 = solution_figure(npz, "Example 2: $u_h$ ({triangles} triangles)")
+def main(npz, png, pdf, title="Example 2: $u_h$ ({triangles} triangles)"):
+    d, fig, ax2 = solution_figure(npz, title)
     multiplier_panel(fig, ax2, d, "magma")
     ax2.set_title(rf"$\lambda_H$ (contact where $\lambda_H<0$: {int(np.sum(d['lam'] < 0))} "
                   "elements)")
@@ -17,4 +17,6 @@ def main(npz, png, pdf):
 
 
 if __name__ == "__main__":
-    main(snakemake.input.npz, snakemake.output.png, snakemake.output.pdf)  # noqa: F821
+    title = snakemake.params.get("title")  # noqa: F821  (Figure 5 reuses this script)
+    main(snakemake.input.npz, snakemake.output.png, snakemake.output.pdf,  # noqa: F821
+         *([title] if title else []))

@@ -19,18 +19,9 @@ def coarse_mesh(family, tag, grading):
 
 
 def build(problem, family, tag, cfg, quadrature):
-    grading = cfg["example1"]["grading"]
-    if problem == "ex2":
-        c = cfg["example2"]
-        chi = examples.paraboloid_obstacle(**c["obstacle"])
-        return vi.mixed_problem("obstacle", coarse_mesh(family, tag, grading), c["s"], 1.0,
-                                chi=chi, quadrature=quadrature)
-    if problem.startswith("ex3-"):
-        c = cfg["example3"]
-        v = c["variants"][problem[4:]]
-        return vi.mixed_problem("friction", coarse_mesh(family, tag, grading), c["s"],
-                                examples.radial_load(v["a"], v["b"]), F=v["F"],
-                                quadrature=quadrature)
+    if problem == "ex2" or problem.startswith("ex3-"):
+        coarse = coarse_mesh(family, tag, cfg["example1"]["grading"])
+        return elliptic_builder(problem, cfg, quadrature)(coarse)[0]
     c = cfg["thin"]
     coarse = ff.disk_uniform(c["level"] - 1)
     edges = examples.segment_edges(coarse, *c["segment"])
@@ -41,6 +32,18 @@ def build(problem, family, tag, cfg, quadrature):
                                 quadrature=quadrature)
     return vi.mixed_problem("thin_friction", coarse, c["s"], c["friction"]["f"], edges=edges,
                             F=c["friction"]["F"], quadrature=quadrature)
+
+
+def elliptic_builder(problem, cfg, quadrature):
+    """coarse ↦ (MixedProblem, f) of Example 2 or a variant of Example 3."""
+    if problem == "ex2":
+        c = cfg["example2"]
+        return lambda coarse: examples.example2(coarse, s=c["s"], **c["obstacle"],
+                                                quadrature=quadrature)
+    c = cfg["example3"]
+    v = c["variants"][problem[4:]]
+    return lambda coarse: examples.example3(coarse, s=c["s"], a=v["a"], b=v["b"], F=v["F"],
+                                            quadrature=quadrature)
 
 
 def constraint_report(prob, u_free, lam):

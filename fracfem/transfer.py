@@ -1,0 +1,159 @@
+"""P1 functions between non-matching meshes: point location and interpolation.
+
+Used to compare a solution with a reference on another mesh (errors of the
+parabolic examples) and to carry u_h from one time slab's mesh to the next.
+A P1 function is extended by zero outside its mesh (its polygon is inside the
+unit disk and the functions vanish on its boundary, so this is the natural
+extension of V_h ⊂ H^s_0).
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from .assembly import mesh_arrays
+
+__all__ = ["locate", "interpolation_matrix", "interpolate", "interpolate_at", "transfer",
+           "space_time_distance"]
+
+
+def _element_maps(mesh):
+    """Vertex 0 and the inverse Jacobian of every element (affine P1 maps)."""
+    p, t = mesh_arrays(mesh)
+    p0 = p[t[:, 0]]
+    J = np.stack([p[t[:, 1]] - p0, p[t[:, 2]] - p0], axis=2)       # (Nt, 2, 2)
+    return p0, np.linalg.inv(J), t
+
+
+def _barycentric(p0, Jinv, el, x):
+    """Barycentric coordinates (N, 3) of points x (N, 2) in elements el (N,)."""
+    xi = np.einsum("nij,nj->ni", Jinv[el], x - p0[el])
+    return np.column_stack([1.0 - xi[:, 0] - xi[:, 1], xi[:, 0], xi[:, 1]])
+
+
+def locate(mesh, points, *, tol: float = 1e-10, candidates: int = 12):
+    """Element containing each point, and its barycentric coordinates.
+
+    ``points`` (2, N).  A KD-tree of the element centroids proposes the nearest
+    ``candidates`` elements; points not found among them are searched in all
+    elements (in blocks).  Returns (elements (N,) int, −1 for points outside the
+    mesh polygon (barycentric coordinates ≥ −tol count as inside), barycentric
+    coordinates (N, 3), 0 where outside).
+    """
+    x = np.asarray(points, dtype=float)
+    if x.ndim != 2 or x.shape[0] != 2 or not np.all(np.isfinite(x)):
+        raise ValueError(f"points must be a finite array of shape (2, N), got {x.shape}")
+    x = x.T
+    p0, Jinv, t = _element_maps(mesh)
+    p, _ = mesh_arrays(mesh)
+    nt, n = len(t), len(x)
+    el = np.full(n, -1, dtype=np.int64)
+    bary = np.zeros((n, 3))
+    k = min(candidates, nt)
+    _, cand = cKDTree(p[t].mean(axis=1)).query(x, k)
+    cand = cand.reshape(n, k)
+    best = np.full(n, -np.inf)
+    for j in range(k):
+        b = _barycentric(p0, Jinv, cand[:, j], x)
+        m = b.min(axis=1)
+        better = (m > best) & (best < -tol)          # keep the first containing one
+        el = np.where(better, cand[:, j], el)
+        bary[better] = b[better]
+        best = np.where(better, m, best)
+    missing = np.flatnonzero(best < -tol)
+    block = max(1, 2_000_000 // nt)                                # bounded memory
+    for start in range(0, missing.size, block):
+        idx = missing[start:start + block]
+        xs = x[idx]                                                # (B, 2)
+        xi = np.einsum("tij,btj->bti", Jinv, xs[:, None, :] - p0[None])
+        b = np.concatenate([1.0 - xi.sum(axis=2, keepdims=True), xi], axis=2)
+        m = b.min(axis=2)                                          # (B, Nt)
+        arg = m.argmax(axis=1)
+        bary[idx] = b[np.arange(len(idx)), arg]
+        el[idx] = arg
+        best[idx] = m[np.arange(len(idx)), arg]
+    outside = best < -tol
+    el[outside] = -1
+    bary[outside] = 0.0
+    return el, bary
+
+
+def interpolation_matrix(mesh, points) -> sp.csr_matrix:
+    """Sparse E with (E u)_j = u_h(x_j): P1 evaluation (0 outside the mesh)."""
+    elem, bary = locate(mesh, points)
+    n = len(elem)
+    inside = elem >= 0
+    rows = np.repeat(np.flatnonzero(inside), 3)
+    cols = np.asarray(mesh.t)[:, elem[inside]].T.ravel()
+    return sp.csr_matrix((bary[inside].ravel(), (rows, cols)),
+                         shape=(n, mesh.p.shape[1]))
+
+
+def interpolate_at(mesh, u, points, **kwargs) -> np.ndarray:
+    """Values at ``points`` (2, N) of the P1 function u (nodal, all nodes of
+    ``mesh``), extended by 0 outside the mesh polygon."""
+    u = np.asarray(u, dtype=float)
+    if u.shape != (mesh.p.shape[1],):
+        raise ValueError(f"u must have one value per node of mesh ({mesh.p.shape[1]},), "
+                         f"got {u.shape}")
+    el, bary = locate(mesh, points, **kwargs)
+    t = np.asarray(mesh.t.T, dtype=np.int64)
+    vals = np.einsum("nk,nk->n", bary, u[t[np.maximum(el, 0)]])
+    return np.where(el >= 0, vals, 0.0)
+
+
+def transfer(mesh_from, u_from, mesh_to) -> np.ndarray:
+    """Nodal interpolation of a P1 function onto another mesh: the values at the
+    nodes of ``mesh_to`` (0 outside the old polygon and on ∂Ω of the new mesh)."""
+    if mesh_to is mesh_from:
+        return np.array(u_from, dtype=float)
+    u = interpolate_at(mesh_from, u_from, mesh_to.p)
+    u[mesh_to.boundary_nodes()] = 0.0
+    return u
+
+
+def interpolate(mesh_from, u, mesh_to) -> np.ndarray:
+    """Nodal interpolant on mesh_to of the P1 function u on mesh_from."""
+    u = np.asarray(u, dtype=float)
+    if u.shape != (mesh_from.p.shape[1],):
+        raise ValueError(f"u must have one value per node of mesh_from "
+                         f"({mesh_from.p.shape[1]},), got {u.shape}")
+    return interpolation_matrix(mesh_from, mesh_to.p) @ u
+
+
+def space_time_distance(pieces, reference, A_ref, free_ref) -> float:
+    """‖I u − u_ref‖_{L²(0,T; a)} for functions piecewise constant in time.
+
+    ``pieces`` and ``reference`` are lists of (t0, t1, mesh, u): on (t0, t1] the
+    function is the P1 function u (all nodes) on mesh.  u is interpolated onto
+    the reference mesh of each reference piece (nodal interpolation, zero
+    outside its mesh); the a-norm is the reference's free-node matrix A_ref, all
+    reference pieces sharing one mesh.  The time integral is exact on the union
+    of both time grids, which must cover the same interval.
+    """
+    def edges(pcs):
+        return np.array([pcs[0][0]] + [pc[1] for pc in pcs], dtype=float)
+
+    ta, tb = edges(pieces), edges(reference)
+    if not (np.isclose(ta[0], tb[0]) and np.isclose(ta[-1], tb[-1])):
+        raise ValueError(f"time intervals differ: [{ta[0]}, {ta[-1]}] vs [{tb[0]}, {tb[-1]}]")
+    ref_mesh = reference[0][2]
+    cache = {}
+
+    def on_ref(mesh, u):
+        key = id(mesh)
+        if key not in cache:
+            cache[key] = (mesh, interpolation_matrix(mesh, ref_mesh.p)[free_ref])
+        return cache[key][1] @ u
+
+    grid = np.union1d(ta, tb)
+    grid = grid[np.concatenate([[True], np.diff(grid) > 1e-12 * max(1.0, abs(grid[-1]))])]
+    total = 0.0
+    for a, b in zip(grid[:-1], grid[1:]):
+        mid = 0.5 * (a + b)
+        i = min(np.searchsorted(ta, mid) - 1, len(pieces) - 1)
+        j = min(np.searchsorted(tb, mid) - 1, len(reference) - 1)
+        e = on_ref(pieces[i][2], pieces[i][3]) - reference[j][3][free_ref]
+        total += (b - a) * float(e @ (A_ref @ e))
+    return float(np.sqrt(max(total, 0.0)))

@@ -1,0 +1,51 @@
+"""Rates and reference energies (fracfem.report)."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from fracfem.report import energy_error, extrapolate_energy, fit_rate, rate_table
+
+
+def test_extrapolation_recovers_the_model_limit():
+    N = np.array([100.0, 400.0, 1500.0, 5000.0])
+    E = -0.6 + 0.3 * N ** -0.8
+    out = extrapolate_energy(N, E)
+    assert out["energy"] == pytest.approx(-0.6, abs=1e-12)
+    assert out["beta"] == pytest.approx(0.8, rel=1e-9)
+    assert out["dofs_used"] == [400, 1500, 5000]
+
+
+def test_extrapolation_uses_the_three_finest_in_any_order():
+    N = np.array([5000.0, 100.0, 1500.0, 400.0])
+    E = 1.0 + 2.0 * N ** -0.5
+    assert extrapolate_energy(N, E)["energy"] == pytest.approx(1.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("E", [[1.0, 0.9, 0.95], [1.0, 1.0, 0.9], [1.0, 0.9, np.nan]])
+def test_extrapolation_refuses_non_monotone_energies(E):
+    with pytest.raises(ValueError, match="energ"):
+        extrapolate_energy([10, 20, 40], E)
+
+
+def test_extrapolation_refuses_accelerating_decrease():
+    # differences growing on a geometric DOF sequence: no β > 0 fits
+    with pytest.raises(ValueError, match="β"):
+        extrapolate_energy([10, 20, 40], [1.0, 0.99, 0.9])
+
+
+def test_energy_error_is_exact_for_a_galerkin_energy():
+    # Example 1: E(u_h) − E(u) = ½‖u − u_h‖²_a
+    assert energy_error(-0.5 + 0.5 * 0.01, -0.5) == pytest.approx(0.1)
+
+
+def test_fit_rate_and_variants_in_rate_table():
+    N = np.array([100, 400, 1600])
+    df = pd.DataFrame({"example": 3, "family": "uniform", "s": 0.6, "dofs": np.tile(N, 2),
+                       "error": np.r_[N ** -0.25, 2 * N ** -0.5],
+                       "variant": ["printed"] * 3 + ["signchange"] * 3})
+    assert fit_rate(N, N ** -0.25) == pytest.approx(-0.25)
+    t = rate_table(df).set_index("variant")
+    assert t.loc["printed", "rate"] == pytest.approx(-0.25)
+    assert t.loc["printed", "paper_rate"] == pytest.approx(-0.220)
+    assert t.loc["signchange", "rate"] == pytest.approx(-0.5)
+    assert pd.isna(t.loc["signchange", "paper_rate"])

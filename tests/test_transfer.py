@@ -1,0 +1,63 @@
+"""Point location and interpolation between meshes (fracfem.transfer)."""
+import numpy as np
+import pytest
+
+from fracfem import disk_graded, disk_uniform, refine_disk
+from fracfem.transfer import interpolate, interpolation_matrix, locate
+
+
+def test_linear_functions_are_reproduced_inside():
+    coarse, fine = disk_uniform(2), disk_graded(0.3)
+    u = 1.0 + 2.0 * coarse.p[0] - 3.0 * coarse.p[1]
+    v = interpolate(coarse, u, fine)
+    elem, _ = locate(coarse, fine.p)
+    inside = elem >= 0
+    # disk_uniform(2)'s polygon contains the disk of radius cos(π/16) > 0.98
+    assert np.all(inside[np.hypot(*fine.p) < 0.98])
+    np.testing.assert_allclose(v[inside], 1 + 2 * fine.p[0, inside] - 3 * fine.p[1, inside],
+                               atol=1e-12)
+    assert np.all(v[~inside] == 0.0)
+
+
+def test_nested_meshes_carry_p1_functions_exactly():
+    # interior nodes of the refinement lie in the coarse polygon: P1 is reproduced
+    coarse = disk_uniform(2)
+    fine = refine_disk(coarse)
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal(coarse.p.shape[1])
+    u[coarse.boundary_nodes()] = 0.0
+    v = interpolate(coarse, u, fine)
+    np.testing.assert_allclose(v[: coarse.p.shape[1]], u, atol=1e-12)
+    # midpoints of interior coarse edges: the mean of the two ends
+    E = interpolation_matrix(coarse, fine.p)
+    assert np.allclose(E.sum(axis=1).A1[fine.interior_nodes()], 1.0)
+
+
+def test_points_outside_get_zero_and_bad_points_raise():
+    mesh = disk_uniform(1)
+    elem, bary = locate(mesh, np.array([[2.0, 0.0], [0.0, 0.0]]))
+    assert elem[0] == -1 and elem[1] >= 0
+    assert bary[1].sum() == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="points"):
+        locate(mesh, np.array([[np.nan], [0.0]]))
+    with pytest.raises(ValueError, match="one value per node"):
+        interpolate(mesh, np.zeros(3), mesh)
+
+
+def test_space_time_distance_is_exact_for_piecewise_constant_functions():
+    from fracfem import discretise
+    from fracfem.transfer import space_time_distance
+
+    mesh = disk_uniform(2)
+    disc = discretise(mesh, 0.5)
+    rng = np.random.default_rng(1)
+    u1, u2, w = (disc.extend(rng.standard_normal(len(disc.free))) for _ in range(3))
+    A, fr = disc.A, disc.free
+    # pieces: u1 on (0, 0.3], u2 on (0.3, 1]; reference: w on (0, 1], same mesh
+    d = space_time_distance([(0, 0.3, mesh, u1), (0.3, 1.0, mesh, u2)],
+                            [(0.0, 0.5, mesh, w), (0.5, 1.0, mesh, w)], A, fr)
+    e1, e2 = (u1 - w)[fr], (u2 - w)[fr]
+    assert d == pytest.approx(np.sqrt(0.3 * e1 @ A @ e1 + 0.7 * e2 @ A @ e2), rel=1e-12)
+    assert space_time_distance([(0, 1, mesh, w)], [(0, 1, mesh, w)], A, fr) == 0.0
+    with pytest.raises(ValueError, match="time intervals"):
+        space_time_distance([(0, 0.5, mesh, w)], [(0, 1, mesh, w)], A, fr)

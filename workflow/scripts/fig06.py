@@ -1,0 +1,32 @@
+"""Figure 6: Example 2 adaptive meshes T_h after several refinements, coarse indicators."""
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from plotstyle import plt, save  # noqa: E402
+
+
+def main(npz, png, pdf):
+    d = np.load(npz)
+    steps = [int(k) for k in d["steps"]]
+    fig, axes = plt.subplots(1, len(steps), figsize=(3.4 * len(steps), 3.6), squeeze=False)
+    for ax, k in zip(axes[0], steps):
+        p, t = d[f"p{k}"], d[f"t{k}"]
+        ax.triplot(p[0], p[1], t.T, lw=0.2, color="k")
+        # the obstacle's contact boundary of the final solution, for orientation
+        ax.set_title(f"after {k} refinements: {t.shape[1]} triangles", fontsize=9)
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+    pc, tc, lam = d["pc"], d["tc"], d["lam"]
+    contact = lam < 0
+    for ax in axes[0]:
+        ax.tripcolor(pc[0], pc[1], tc.T, facecolors=np.where(contact, 1.0, np.nan),
+                     cmap="Reds", vmin=0, vmax=2, alpha=0.35, edgecolors="none")
+    fig.suptitle("Example 2, Algorithm B: meshes $T_h$ (shaded: final contact set)")
+    save(fig, png, pdf)
+
+
+if __name__ == "__main__":
+    main(snakemake.input.npz, snakemake.output.png, snakemake.output.pdf)  # noqa: F821

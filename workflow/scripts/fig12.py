@@ -1,0 +1,42 @@
+"""Figure 12: Example 4 (u₀ = 1), slices of the space-time adaptive meshes."""
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from plotstyle import plt, save  # noqa: E402
+
+
+def slices(d, key):
+    out, j = [], 0
+    while f"p_{key}_{j}" in d:
+        out.append((float(d[f"time_{key}_{j}"]), d[f"p_{key}_{j}"], d[f"t_{key}_{j}"]))
+        j += 1
+    return out
+
+
+def main(npz, png, pdf):
+    d = np.load(npz)
+    keys = [f"it{k}" for k in d["figure_iterations"]] + ["last"]
+    rows = [(k, slices(d, k)) for k in keys if slices(d, k)]
+    ncol = max(len(s) for _, s in rows)
+    fig, axes = plt.subplots(len(rows), ncol, figsize=(2.6 * ncol, 2.7 * len(rows)),
+                             squeeze=False)
+    last_it = int(d["iterations"][-1])
+    for r, (key, sl) in enumerate(rows):
+        for c, (t_out, p, t) in enumerate(sl):
+            ax = axes[r][c]
+            ax.triplot(p[0], p[1], t.T, lw=0.15, color="k")
+            name = f"pass {last_it}" if key == "last" else f"pass {key[2:]}"
+            ax.set_title(f"{name}, t = {t_out:g}: {t.shape[1]} tri.", fontsize=8)
+            ax.set_aspect("equal")
+            ax.set_axis_off()
+        for c in range(len(sl), ncol):
+            axes[r][c].set_axis_off()
+    fig.suptitle("Example 4, $u_0 = 1$: meshes $T_h$ of the time slabs containing t")
+    save(fig, png, pdf)
+
+
+if __name__ == "__main__":
+    main(snakemake.input.npz, snakemake.output.png, snakemake.output.pdf)  # noqa: F821

@@ -1,0 +1,38 @@
+"""Figures 13 and 15: L²(0,T; H^s) error vs space-time DOFs (Examples 4 and 5)."""
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).parent))
+from plotstyle import MARKERS, plt, save  # noqa: E402
+
+from fracfem.report import PAPER_RATES, fit_rate  # noqa: E402
+
+
+def main(csvs, png, pdf):
+    fig, axes = plt.subplots(1, len(csvs), figsize=(5.5 * len(csvs), 4), squeeze=False)
+    for ax, csv in zip(axes[0], csvs):
+        df = pd.read_csv(csv)
+        ex = int(df.example.iloc[0])
+        for fam, g in df.groupby("family"):
+            g = g.sort_values("spacetime_dofs")
+            rate = fit_rate(g.spacetime_dofs, g.error)
+            ax.loglog(g.spacetime_dofs, g.error, marker=MARKERS[fam],
+                      label=f"{fam}: {rate:.3f} (paper {PAPER_RATES[(ex, fam)]:.3f})")
+            if "eta" in g and g.eta.notna().any():
+                ax.loglog(g.spacetime_dofs, g.eta, ls=":", marker=".", color="k",
+                          label=f"estimator ({fam}): {fit_rate(g.spacetime_dofs, g.eta):.3f}")
+        ax.axhline(df.reference_error_estimate.iloc[0], color="grey", lw=0.7, ls="--",
+                   label="reference's own error (estimate)")
+        var = df.variant.fillna("").iloc[0]
+        ax.set_title(f"Example {ex}{' (' + str(var) + ')' if var else ''}, s = "
+                     f"{df.s.iloc[0]:g}", fontsize=9)
+        ax.set_xlabel("space-time degrees of freedom")
+        ax.set_ylabel(r"$\|u_{ref}-u_{h\tau}\|_{L^2(0,T;H^s)}$")
+        ax.legend(fontsize=7)
+    save(fig, png, pdf)
+
+
+if __name__ == "__main__":
+    main(list(snakemake.input.csv), snakemake.output.png, snakemake.output.pdf)  # noqa: F821
