@@ -12,7 +12,7 @@ from fracfem.solvers import ConvergenceError  # noqa: E402
 NAMES = {"s": ["s"], "θ": ["θ", "theta"], "grading": ["grading"], "h": ["h "], "level": ["level"],
          "F": ["F"], "χ": ["χ"], "Γ̃": ["edges", "segment"], "p": ["p "], "t": ["t "],
          "f": ["f "], "quadrature": ["far_thresholds"], "maxiter": ["iterations"],
-         "config": ["schema"]}
+         "config": ["schema"], "τ": ["tau"], "T": ["T="], "times": ["times"], "u0": ["u0"]}
 
 
 @pytest.mark.parametrize("param, what, call", bad_inputs.CASES,

@@ -57,3 +57,17 @@ rule stability:
     threads: 2
     script:
         "../scripts/stability.py"
+
+
+# Not in `rule all`: `snakemake --cores 2 stability_vi` (issue 6, obstacle/friction part).
+rule stability_vi:
+    output:
+        md=f"{OUT}/stability-vi.md",
+        csv=f"{RES}/stability/vi.csv",
+    log:
+        f"{RES}/logs/stability_vi.log",
+    benchmark:
+        f"{RES}/benchmarks/stability_vi.tsv"
+    threads: 2
+    script:
+        "../scripts/stability_vi.py"

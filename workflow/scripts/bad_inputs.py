@@ -9,7 +9,7 @@ import numpy as np
 import yaml
 
 import fracfem as ff
-from fracfem import adaptive, examples, vi
+from fracfem import adaptive, examples, parabolic, vi
 from fracfem.meshes import mesh_from_arrays
 from fracfem.solvers import ConvergenceError
 
@@ -43,8 +43,25 @@ def _uzawa_two_steps():
     vi.solve(prob, "uzawa", maxiter=2)
 
 
+def _steps(**kw):
+    """Run a tiny unconstrained DG(0) problem with the given time arguments."""
+    disc = ff.discretise(ff.disk_uniform(1), 0.5, 0.0)
+    return list(parabolic.time_steps(disc, 1.0, **kw))
+
+
 # (parameter, what was passed, call)
 CASES = [
+    ("τ", "time step τ = 0", lambda: _steps(T=1.0, tau=0.0)),
+    ("τ", "time step τ = −0.1", lambda: _steps(T=1.0, tau=-0.1)),
+    ("τ", "time step τ = NaN", lambda: _steps(T=1.0, tau=float("nan"))),
+    ("T", "final time T = 0", lambda: _steps(T=0.0, tau=0.1)),
+    ("T", "final time T = inf", lambda: _steps(T=float("inf"), tau=0.1)),
+    ("times", "time grid not increasing [0, 0.5, 0.4]",
+     lambda: _steps(times=[0.0, 0.5, 0.4])),
+    ("u0", "initial value u0 = NaN", lambda: list(parabolic.time_steps(
+        ff.discretise(ff.disk_uniform(1), 0.5, 0.0), float("nan"), T=1.0, tau=0.5))),
+    ("θ", "θ = 1 in Algorithm C", lambda: parabolic.algorithm_c(
+        lambda c: None, ff.disk_uniform(1), 1.0, T=1.0, theta=1.0, iterations=1)),
     ("s", "s = 0", lambda: ff.stiffness_matrix(ff.disk_uniform(1), 0.0)),
     ("s", "s = 1.2", lambda: ff.stiffness_matrix(ff.disk_uniform(1), 1.2)),
     ("s", "s = NaN", lambda: ff.stiffness_matrix(ff.disk_uniform(1), float("nan"))),
