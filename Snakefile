@@ -40,5 +40,6 @@ rule all:
         rules.fig11.output,
         rules.fig12.output,
         rules.parabolic_summary.output,
+        rules.para_reference_check.output,
         expand(rules.thin_demo.output, kind=["obstacle", "friction"]),
     default_target: True

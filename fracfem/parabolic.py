@@ -1053,3 +1053,32 @@ def algorithm_c(make_problem, coarse0, u0, *, T: float, theta: float, iterations
     """
     return list(algorithm_c_steps(make_problem, coarse0, u0, T=T, theta=theta,
                                   iterations=iterations, **kwargs))
+
+
+# ------------------------------------------------------------------ manufactured solution
+
+
+def heat_error(steps, disc, s: float) -> float:
+    """‖u − u_hτ‖_{L²(0,T; a)} for u = e^{−t}(1−|x|²)^{1+s} (:func:`fracfem.exact.heat_solution`).
+
+    Exact in time: u^k is constant on I_k, so ∫_{I_k}‖e^{−t}w − u^k‖²_a dt =
+    a(w,w)∫e^{−2t} − 2a(w,u^k)∫e^{−t} + τ_k a(u^k,u^k), with a(w, φ_i) =
+    ((−Δ)ˢw, φ_i) and a(w,w) in closed form (:func:`fracfem.exact.bubble_energy`).
+    ``steps``: the :class:`TimeStep` records of a run on ``disc`` (k = 0 is skipped).
+    """
+    from . import exact
+    from .assembly import load_vector
+
+    aw = load_vector(disc.mesh, lambda x: exact.bubble_laplacian(x, s))[disc.free]
+    ww = exact.bubble_energy(s)
+    err2 = 0.0
+    for step in steps:
+        if step.k == 0:
+            continue
+        a, b = step.t - step.tau, step.t
+        u = step.u[disc.free]
+        err2 += (ww * 0.5 * (np.exp(-2 * a) - np.exp(-2 * b))
+                 - 2.0 * (aw @ u) * (np.exp(-a) - np.exp(-b)) + step.tau * (u @ (disc.A @ u)))
+    if not err2 > 0:
+        raise RuntimeError(f"squared error {err2:.3e} <= 0: round-off or a wrong run")
+    return float(np.sqrt(err2))

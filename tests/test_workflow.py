@@ -65,3 +65,19 @@ def test_config_failing_the_schema_is_refused(override, message):
     code, text = dry_run("--config", override, ok=False)
     assert code != 0
     assert message in text
+
+
+def test_parabolic_figure_runs_only_its_jobs(tmp_path):
+    _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
+                      "--", f"{tmp_path}/o/fig13-ex4-error.png")
+    jobs = job_counts(text)
+    # Figure 13: Example 4 (both initial values): series, reference, Algorithm C, errors
+    assert set(jobs) == {"para_solve", "para_adaptive", "para_errors", "fig_para_error"}
+    assert jobs["para_adaptive"] == 2 and jobs["para_errors"] == 2
+    assert "ex5" not in text and "ex1_solve" not in text and "vi_solve" not in text
+
+
+def test_every_paper_figure_is_a_default_target(tmp_path):
+    _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o")
+    for num in range(1, 16):
+        assert re.search(rf"{tmp_path}/o/fig{num:02d}-[\w-]+\.png", text), f"Figure {num}"

@@ -153,3 +153,19 @@ rule parabolic_summary:
         f"{RES}/logs/parabolic_summary.log",
     script:
         "../scripts/parabolic_summary.py"
+
+
+rule para_reference_check:
+    output:
+        md=f"{OUT}/parabolic-reference-check.md",
+        csv=f"{RES}/para/reference-check.csv",
+    params:
+        config={k: config[k] for k in ("example1", "parabolic", "quadrature")},
+        s=0.5,
+    log:
+        f"{RES}/logs/para/reference_check.log",
+    benchmark:
+        f"{RES}/benchmarks/para/reference_check.tsv"
+    threads: 2
+    script:
+        "../scripts/para_reference_check.py"
