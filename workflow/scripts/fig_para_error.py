@@ -29,8 +29,8 @@ def main(csvs, png, pdf):
         ax.set_title(f"Example {ex}{' (' + str(var) + ')' if var else ''}, s = "
                      f"{df.s.iloc[0]:g}", fontsize=9)
         ax.set_xlabel("space-time degrees of freedom")
-        ax.set_ylabel(r"$\|u_{ref}-u_{h\tau}\|_{L^2(0,T;H^s)}$")
         ax.legend(fontsize=7)
+    axes[0][0].set_ylabel(r"$\|u_{ref}-u_{h\tau}\|_{L^2(0,T;H^s)}$")
     save(fig, png, pdf)
 
 
