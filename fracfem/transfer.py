@@ -135,10 +135,20 @@ def space_time_distance(pieces, reference, A_ref, free_ref) -> float:
     def edges(pcs):
         return np.array([pcs[0][0]] + [pc[1] for pc in pcs], dtype=float)
 
+    for name, pcs in (("pieces", pieces), ("reference", reference)):
+        if not pcs:
+            raise ValueError(f"{name} is empty")
+        for k in range(len(pcs) - 1):
+            if not np.isclose(pcs[k][1], pcs[k + 1][0], rtol=0, atol=1e-12 * abs(pcs[-1][1])):
+                raise ValueError(f"{name} are not contiguous in time: piece {k} ends at "
+                                 f"{pcs[k][1]}, piece {k + 1} starts at {pcs[k + 1][0]}")
     ta, tb = edges(pieces), edges(reference)
-    if not (np.isclose(ta[0], tb[0]) and np.isclose(ta[-1], tb[-1])):
+    tol = 1e-12 * max(abs(ta[-1]), abs(tb[-1]), 1e-300)
+    if abs(ta[0] - tb[0]) > tol or abs(ta[-1] - tb[-1]) > tol:
         raise ValueError(f"time intervals differ: [{ta[0]}, {ta[-1]}] vs [{tb[0]}, {tb[-1]}]")
     ref_mesh = reference[0][2]
+    if any(pc[2] is not ref_mesh for pc in reference):
+        raise ValueError("the reference pieces must all live on one mesh")
     cache = {}
 
     def on_ref(mesh, u):
@@ -152,8 +162,8 @@ def space_time_distance(pieces, reference, A_ref, free_ref) -> float:
     total = 0.0
     for a, b in zip(grid[:-1], grid[1:]):
         mid = 0.5 * (a + b)
-        i = min(np.searchsorted(ta, mid) - 1, len(pieces) - 1)
-        j = min(np.searchsorted(tb, mid) - 1, len(reference) - 1)
+        i = int(np.clip(np.searchsorted(ta, mid) - 1, 0, len(pieces) - 1))
+        j = int(np.clip(np.searchsorted(tb, mid) - 1, 0, len(reference) - 1))
         e = on_ref(pieces[i][2], pieces[i][3]) - reference[j][3][free_ref]
         total += (b - a) * float(e @ (A_ref @ e))
     return float(np.sqrt(max(total, 0.0)))

@@ -61,3 +61,19 @@ def test_space_time_distance_is_exact_for_piecewise_constant_functions():
     assert space_time_distance([(0, 1, mesh, w)], [(0, 1, mesh, w)], A, fr) == 0.0
     with pytest.raises(ValueError, match="time intervals"):
         space_time_distance([(0, 0.5, mesh, w)], [(0, 1, mesh, w)], A, fr)
+
+
+def test_space_time_distance_refuses_gaps_and_mixed_reference_meshes():
+    from fracfem import discretise
+    from fracfem.transfer import space_time_distance
+
+    mesh, other = disk_uniform(2), disk_uniform(1)
+    disc = discretise(mesh, 0.5)
+    w = np.zeros(mesh.p.shape[1])
+    v = np.zeros(other.p.shape[1])
+    with pytest.raises(ValueError, match="contiguous"):
+        space_time_distance([(0, 0.4, mesh, w), (0.5, 1.0, mesh, w)], [(0, 1, mesh, w)],
+                            disc.A, disc.free)
+    with pytest.raises(ValueError, match="one mesh"):
+        space_time_distance([(0, 1, mesh, w)], [(0, 0.5, mesh, w), (0.5, 1, other, v)],
+                            disc.A, disc.free)

@@ -112,6 +112,7 @@ rule fig14:
         md=f"{OUT}/ex5-free-boundary.md",
     params:
         times=[0.0, 0.2, 0.4, 0.8],
+        F=PARA["examples"]["ex5"]["F"],
     log:
         f"{RES}/logs/fig14.log",
     script:

@@ -22,9 +22,11 @@ def slip_regions(pc, tc, lam, F, rtol=1e-6):
             "slip− inner radius": float(r[minus].min()) if minus.any() else np.nan}
 
 
-def main(npz, times_shown, png, pdf, md):
+def main(npz, times_shown, F, png, pdf, md):
     d = np.load(npz)
     p, t, U, LAM, times = d["p"], d["t"], d["U"], d["LAM"], d["times"]
+    if F is None:
+        raise ValueError("fig14 needs params.F, the friction bound of Example 5")
     pc, tc = d["pc"], d["tc"]
     fig = plt.figure(figsize=(3.3 * len(times_shown), 6.4))
     for j, ts in enumerate(times_shown):
@@ -35,7 +37,7 @@ def main(npz, times_shown, png, pdf, md):
         ax2 = fig.add_subplot(2, len(times_shown), len(times_shown) + j + 1)
         if k > 0:
             ax2.tripcolor(pc[0], pc[1], tc.T, facecolors=LAM[k - 1], cmap="coolwarm",
-                          vmin=-LAM.max(), vmax=LAM.max(), edgecolors="none")
+                          vmin=-F, vmax=F, edgecolors="none")
             ax2.set_title(rf"$\lambda_H$, t = {times[k]:.2f}", fontsize=9)
         else:
             ax2.set_title(r"t = 0: no $\lambda_H$ (initial value $P_h u_0$)", fontsize=8)
@@ -43,7 +45,6 @@ def main(npz, times_shown, png, pdf, md):
         ax2.set_axis_off()
     fig.suptitle(f"Example 5 ({t.shape[1]} triangles, {len(times) - 1} steps)")
     save(fig, png, pdf)
-    F = float(np.abs(LAM).max())
     rows = [{"t": float(times[k + 1]), **slip_regions(pc, tc, LAM[k], F)}
             for k in range(len(LAM))]
     table = pd.DataFrame(rows)
@@ -52,9 +53,11 @@ def main(npz, times_shown, png, pdf, md):
         tmp.write_text(f"Example 5 (F = {F:g}): slip and stick sets of λ_H over time; the "
                        "free boundary is where λ_H jumps between them (radii of element "
                        "centroids):\n\n"
-                       + table.iloc[keep].to_markdown(index=False, floatfmt=".3g") + "\n")
+                       + table.iloc[keep].to_markdown(
+                           index=False, floatfmt=("g", "g", "g", "g", ".3g", ".3g")) + "\n")
 
 
 if __name__ == "__main__":
-    main(snakemake.input.npz, snakemake.params.times, snakemake.output.png,  # noqa: F821
+    main(snakemake.input.npz, snakemake.params.times, snakemake.params.get("F"),  # noqa: F821
+         snakemake.output.png,  # noqa: F821
          snakemake.output.pdf, snakemake.output.md)  # noqa: F821

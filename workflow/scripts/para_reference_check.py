@@ -6,7 +6,6 @@ import logging
 import math
 
 import numba
-import numpy as np
 import pandas as pd
 
 import fracfem as ff

@@ -38,14 +38,13 @@ def time_grid(T, tau_target):
     return np.linspace(0.0, T, n + 1)
 
 
-def lam_summary(problem, lam):
+def lam_summary(problem, lam, upper):
     if lam is None:
         return {}
     if problem.startswith("ex4"):
         return {"contact": int(np.sum(lam < 0))}
-    F = np.abs(lam).max() if lam.size else 0.0
-    return {"slip_plus": int(np.sum(np.isclose(lam, F))),
-            "slip_minus": int(np.sum(np.isclose(lam, -F)))}
+    return {"slip_plus": int(np.sum(np.isclose(lam, upper, rtol=1e-9))),
+            "slip_minus": int(np.sum(np.isclose(lam, -upper, rtol=1e-9)))}
 
 
 def main(problem, family, tag, cfg, quadrature, row_path, npz_path, threads):
@@ -70,7 +69,7 @@ def main(problem, family, tag, cfg, quadrature, row_path, npz_path, threads):
         U.append(st.u)
         if st.lam is not None:
             LAM.append(st.lam)
-            per_step.append({"k": st.k, "t": st.t, **lam_summary(problem, st.lam),
+            per_step.append({"k": st.k, "t": st.t, **lam_summary(problem, st.lam, prob.cset.upper),
                              "iterations": st.info.get("iterations", -1)})
     t_steps = time.perf_counter() - t_steps
     U, LAM = np.array(U), np.array(LAM)

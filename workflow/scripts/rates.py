@@ -5,10 +5,53 @@ from fracfem.io import atomic_path, write_table
 from fracfem.report import rate_table
 
 
+# why a rate can differ from the paper's (README, "Differences from the paper")
+GRADED = ("our 2-graded meshes are shape-regular (N ~ h⁻²|log h|), the paper's are "
+          "anisotropic (its Remark 8.1)")
+REF_ELLIPTIC = ("the reference energy is a three-point extrapolation; the rate range with the "
+                "other families' limits as reference is in elliptic-errors.md")
+EXACT3 = "the reference energy is exact here (pure slip), so the difference is the method's"
+GRADED_REF = (GRADED + "; also, the reference is extrapolated through this family's three "
+              "finest energies, so those three errors lie exactly on a power law by "
+              "construction")
+REF_PARA = ("the error is measured against a reference run whose own error is comparable "
+            "with the finest errors (dashed line in Figures 13/15), which steepens the fit; "
+            "parabolic-reference-check.md measures the effect on a problem with known solution")
+REASONS = {(1, "graded"): GRADED, (2, "graded"): GRADED_REF, (3, "graded"): GRADED,
+           (4, "graded"): GRADED, (5, "graded"): GRADED,
+           (1, "adaptive"): "our adaptive meshes are shape-regular red–green–blue "
+                            "refinements and converge like our graded ones",
+           (2, "adaptive"): REF_ELLIPTIC, (3, "adaptive"): EXACT3,
+           (2, "uniform"): REF_ELLIPTIC, (3, "uniform"): EXACT3,
+           (4, "adaptive"): REF_PARA, (4, "uniform"): REF_PARA,
+           (5, "adaptive"): REF_PARA,
+           (5, "uniform"): "not fully explained: the reference steepens the fit (measured "
+                           "for s = 0.5 in parabolic-reference-check.md), and Example 5's "
+                           "solution sticks everywhere (u_h ≡ 0) after a finite time "
+                           "(ex5-free-boundary.md), so its error lives on an initial part "
+                           "of [0, T]"}
+
+
+def differences(rates, limit=0.05):
+    """One sentence per row whose rate differs from the paper's by more than limit."""
+    lines = []
+    for r in rates.itertuples(index=False):
+        if pd.notna(r.paper_rate) and abs(r.rate - r.paper_rate) > limit:
+            name = f"Example {r.example}{' (' + r.variant + ')' if r.variant else ''}"
+            why = REASONS.get((r.example, r.family), "not explained yet")
+            lines.append(f"- {name}, {r.family}: {r.rate:.3f} against {r.paper_rate:.3f} — "
+                         f"{why}.")
+    return lines
+
+
 def main(tables, csv, md, tex):
-    frames = []
+    frames, dropped = [], 0
     for t in tables:
         d = pd.read_csv(t)
+        if "below_reference" in d:
+            # an energy below the reference energy gives no valid error: not fitted
+            dropped += int(d.below_reference.sum())
+            d = d[~d.below_reference.astype(bool)]
         if "spacetime_dofs" in d:      # parabolic: rates against space-time DOFs
             d = d.assign(dofs=d.spacetime_dofs)
         frames.append(d)
@@ -16,8 +59,14 @@ def main(tables, csv, md, tex):
     rates = rate_table(df)
     rates["difference"] = (rates.rate - rates.paper_rate).round(3)
     write_table(rates, csv)
+    diff = differences(rates)
+    if dropped:
+        diff.append(f"- {dropped} runs with an energy below the reference energy are left "
+                    "out of the fits.")
     with atomic_path(md) as tmp:
-        tmp.write_text(rates.to_markdown(index=False, floatfmt="g") + "\n")
+        tmp.write_text(rates.to_markdown(index=False, floatfmt="g") + "\n"
+                       + ("\nWhere ours differ from the paper's by more than 0.05:\n\n"
+                          + "\n".join(diff) + "\n" if diff else ""))
     with atomic_path(tex) as tmp:
         tmp.write_text(to_latex(rates))
 

@@ -29,12 +29,15 @@ def main(refs, errors, ex1_csv, family, md):
     for ref_json in refs:
         info = json.loads(open(ref_json).read())
         err = info.get("extrapolation_error", info["extrapolation_spread"])
+        err = np.nan if err is None else err
         rows.append({"problem": info["problem"], "reference": info["kind"],
                      "E_ref": info["reference"],
                      "extrapolated": info[f"extrapolated_{family}"],
                      "reference error": err, "finest error": info["finest_error"],
-                     "spread of 3 extrapolations": info["extrapolation_spread"],
-                     **{f"{fam} rate range": "{:.3f} … {:.3f}".format(*r)
+                     "spread of the extrapolations": (np.nan if info["extrapolation_spread"]
+                                                      is None else info["extrapolation_spread"]),
+                     "families": info["extrapolation_families"],
+                     **{f"{fam} rate range": ("—" if r is None else "{:.3f} … {:.3f}".format(*r))
                         for fam, r in sorted(info["rate_range_over_references"].items())}})
     table = pd.DataFrame(rows)
     table["ratio"] = table["reference error"] / table["finest error"]

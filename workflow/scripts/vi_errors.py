@@ -68,22 +68,27 @@ def main(problem, cfg, series_csv, adaptive_csv, out_csv, out_json):
                                                          info["exact"]))
     ext = [info[f"extrapolated_{f}"] for f in ("uniform", "graded", "adaptive")
            if np.isfinite(info[f"extrapolated_{f}"])]
-    # how uncertain is the reference?  the spread of the three families' limits, and
-    # the fitted rates if any of them were taken as the reference instead
-    info["extrapolation_spread"] = float(energy_error(max(ext), min(ext)))
+    # how uncertain is the reference?  the spread of the families' limits (at least two),
+    # and the fitted rates if any of them were taken as the reference instead
+    info["extrapolation_families"] = len(ext)
+    info["extrapolation_spread"] = (float(energy_error(max(ext), min(ext))) if len(ext) >= 2
+                                    else None)
     rates = {}
     for fam, g in df.groupby("family"):
         fits = []
         for e in ext:
             err = energy_error(g.energy, e)
-            fits.append(fit_rate(g.dofs, err) if np.all(err > 0) else np.nan)
-        rates[fam] = [float(np.nanmin(fits)), float(np.nanmax(fits))]
+            if np.all(err > 0):
+                fits.append(fit_rate(g.dofs, err))
+        rates[fam] = [min(fits), max(fits)] if fits else None
     info["rate_range_over_references"] = rates
     info["finest_error"] = float(finest)
     logging.info("%s", info)
     write_table(df, out_csv)
+    clean = {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
+             for k, v in info.items()}
     with atomic_path(out_json) as tmp:
-        tmp.write_text(json.dumps(info, indent=1))
+        tmp.write_text(json.dumps(clean, indent=1, allow_nan=False))
 
 
 if __name__ == "__main__":
