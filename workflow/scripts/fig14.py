@@ -54,7 +54,7 @@ def main(npz, times_shown, F, png, pdf, md):
                        "free boundary is where λ_H jumps between them (radii of element "
                        "centroids):\n\n"
                        + table.iloc[keep].to_markdown(
-                           index=False, floatfmt=("g", "g", "g", "g", ".3g", ".3g")) + "\n")
+                           index=False, floatfmt=(".3g", "g", "g", "g", ".3g", ".3g")) + "\n")
 
 
 if __name__ == "__main__":
