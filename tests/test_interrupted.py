@@ -14,7 +14,7 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(shutil.which("snakemake") is None, reason="no snakemake")]
-TARGET = "out/rates.csv"     # Example 1 only: uniform, graded and adaptive series
+TARGET = "out/ex1-errors.md"  # Example 1 only: uniform, graded and adaptive series
 
 
 def setup_workdir(tmp_path):

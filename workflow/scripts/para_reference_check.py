@@ -10,7 +10,7 @@ import pandas as pd
 
 import fracfem as ff
 from fracfem import exact, parabolic
-from fracfem.io import atomic_path, write_table
+from fracfem.io import atomic_path, provenance, write_table
 from fracfem.meshes import mesh_size
 from fracfem.report import fit_rate
 from fracfem.transfer import space_time_distance
@@ -46,7 +46,7 @@ def main(cfg, quadrature, s, md, csv, threads):
                                                                ref_disc.free)})
         logging.info("%s", rows[-1])
     df = pd.DataFrame(rows)
-    write_table(df, csv)
+    write_table(df.assign(**provenance()), csv)
     summary = []
     for fam, g in df.groupby("family"):
         summary.append({"family": fam, "rate, exact error": fit_rate(g.spacetime_dofs,
