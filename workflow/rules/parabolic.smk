@@ -162,7 +162,7 @@ rule para_reference_check:
         csv=f"{RES}/para/reference-check.csv",
     params:
         config={k: config[k] for k in ("example1", "parabolic", "quadrature")},
-        s=0.5,
+        s_list=sorted({float(e["s"]) for e in PARA["examples"].values()}),
     log:
         f"{RES}/logs/para/reference_check.log",
     benchmark:

@@ -26,7 +26,7 @@ REASONS = {(1, "graded"): GRADED, (2, "graded"): GRADED_REF, (3, "graded"): GRAD
            (4, "adaptive"): REF_PARA, (4, "uniform"): REF_PARA,
            (5, "adaptive"): REF_PARA,
            (5, "uniform"): "not fully explained: the reference steepens the fit (measured "
-                           "for s = 0.5 in parabolic-reference-check.md), and Example 5's "
+                           "for s = 0.6 in parabolic-reference-check.md), and Example 5's "
                            "solution sticks everywhere (u_h ≡ 0) after a finite time "
                            "(ex5-free-boundary.md), so its error lives on an initial part "
                            "of [0, T]"}
