@@ -51,6 +51,11 @@ def provenance(config: dict | None = None) -> dict:
     return info
 
 
+def with_provenance(df, config: dict | None = None):
+    """``df`` with the :func:`provenance` columns added (the same value in every row)."""
+    return df.assign(**provenance(config))
+
+
 def peak_memory_mb() -> float:
     """Peak resident memory of this process in MB."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0

@@ -97,10 +97,13 @@ rule fig10:
     output:
         png=f"{OUT}/fig10-ex4-solution.png",
         pdf=f"{OUT}/fig10-ex4-solution.pdf",
+    params:
+        title=lambda w: ("Example 4, $u_0=1$: $u_{{h\\tau}}$ at T = " + f"{PARA['T']:g}"
+                         + ", adaptive ({triangles} triangles)"),
     log:
         f"{RES}/logs/fig10.log",
     script:
-        "../scripts/fig10.py"
+        "../scripts/fig04.py"
 
 
 rule fig14:

@@ -25,6 +25,24 @@ def time_to_reach(g, level):
     return np.nan
 
 
+def time_panel(ax, d, name, xlabel="wall time [s]"):
+    """Error against wall time of every family of d on ax; the time each family needs
+    for the smallest error all of them reach, as one row of the summary table."""
+    level = d.groupby("family").error.min().max()
+    times = {}
+    for fam, g in d.groupby("family"):
+        g = g.sort_values("t_wall")
+        ax.loglog(g.t_wall, g.error, marker=MARKERS[fam], label=fam)
+        times[fam] = time_to_reach(g, level)
+    ax.axhline(level, color="grey", lw=0.6, ls="--")
+    ax.set_title(name, fontsize=9)
+    ax.set_xlabel(xlabel)
+    ax.legend(fontsize=7)
+    best = min(times, key=times.get)
+    return {"common error": level, **{f"t_{k} [s]": v for k, v in sorted(times.items())},
+            "fastest": best, "speed-up vs slowest": max(times.values()) / times[best]}
+
+
 def main(ex1_csv, vi_csvs, s, png, md):
     ex1 = pd.read_csv(ex1_csv)
     ex1 = ex1[np.isclose(ex1.s, s)].copy()
@@ -41,22 +59,7 @@ def main(ex1_csv, vi_csvs, s, png, md):
     fig, axes = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.8), squeeze=False)
     rows = []
     for ax, name in zip(axes[0], names):
-        d = df[df.name == name]
-        level = d.groupby("family").error.min().max()
-        times = {}
-        for fam, g in d.groupby("family"):
-            g = g.sort_values("t_wall")
-            ax.loglog(g.t_wall, g.error, marker=MARKERS[fam], label=fam)
-            times[fam] = time_to_reach(g, level)
-        ax.axhline(level, color="grey", lw=0.6, ls="--")
-        ax.set_title(name, fontsize=9)
-        ax.set_xlabel("wall time [s]")
-        ax.legend(fontsize=7)
-        best = min(times, key=times.get)
-        rows.append({"example": name, "common error": level,
-                     **{f"t_{k} [s]": v for k, v in sorted(times.items())},
-                     "fastest": best,
-                     "speed-up vs slowest": max(times.values()) / times[best]})
+        rows.append({"example": name, **time_panel(ax, df[df.name == name], name)})
     axes[0][0].set_ylabel("energy error")
     fig.suptitle("Error against wall time (adaptive: all steps so far; VI: PDAS solve)")
     save(fig, png)

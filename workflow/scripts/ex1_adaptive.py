@@ -8,7 +8,7 @@ import pandas as pd
 
 import fracfem as ff
 from fracfem import adaptive
-from fracfem.io import peak_memory_mb, provenance, save_arrays, write_table
+from fracfem.io import peak_memory_mb, save_arrays, with_provenance, write_table
 
 
 def main(s, theta, start_level, max_dofs, max_steps, quadrature, table_path, npz_path,
@@ -43,9 +43,7 @@ def main(s, theta, start_level, max_dofs, max_steps, quadrature, table_path, npz
     last = recs[-1]
     save_arrays(npz_path, p=last.mesh.p, t=last.mesh.t, u=last.u, s=s)
     df = pd.DataFrame(rows)
-    for k, v in provenance().items():
-        df[k] = v
-    write_table(df, table_path)
+    write_table(with_provenance(df), table_path)
 
 
 if __name__ == "__main__":

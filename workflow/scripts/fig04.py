@@ -1,4 +1,5 @@
-"""Figures 4 and 5: Example 2 solution (uniform / adaptive mesh) with the contact set."""
+"""Figures 4, 5 and 10: an obstacle solution (Example 2 uniform / adaptive, Example 4 at
+T on its last adaptive mesh) with λ_H and the contact set."""
 import sys
 from pathlib import Path
 
@@ -17,6 +18,6 @@ def main(npz, png, pdf, title="Example 2: $u_h$ ({triangles} triangles)"):
 
 
 if __name__ == "__main__":
-    title = snakemake.params.get("title")  # noqa: F821  (Figure 5 reuses this script)
+    title = snakemake.params.get("title")  # noqa: F821  (Figures 5, 10 reuse this script)
     main(snakemake.input.npz, snakemake.output.png, snakemake.output.pdf,  # noqa: F821
          *([title] if title else []))

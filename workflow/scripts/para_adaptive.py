@@ -10,7 +10,7 @@ from para_solve import para_problem
 
 import fracfem as ff
 from fracfem import parabolic
-from fracfem.io import peak_memory_mb, provenance, save_arrays, write_table
+from fracfem.io import peak_memory_mb, save_arrays, with_provenance, write_table
 from fracfem.transfer import space_time_distance
 
 
@@ -78,9 +78,7 @@ def main(problem, cfg, quadrature, ref_npz, table_path, npz_path, threads):
     save_arrays(npz_path, **arrays)
     df = pd.DataFrame(rows)
     df["t_reference_assembly"] = t_ref
-    for k, v in provenance().items():
-        df[k] = v
-    write_table(df, table_path)
+    write_table(with_provenance(df), table_path)
 
 
 if __name__ == "__main__":

@@ -1,22 +1,16 @@
 """One parabolic run (Examples 4, 5): DG(0) steps of Problem 6.11 on one mesh pair."""
 import logging
-import math
 import time
 
 import numba
 import numpy as np
 import pandas as pd
+from vi_solve import coarse_mesh
 
 import fracfem as ff
 from fracfem import examples, parabolic, vi
 from fracfem.io import peak_memory_mb, provenance, save_arrays, write_table
 from fracfem.meshes import mesh_size
-
-
-def coarse_mesh(family, tag, grading):
-    if family == "uniform":
-        return ff.disk_uniform(int(tag[1:]) - 1)
-    return ff.disk_graded(float(tag[1:]), grading)
 
 
 def para_problem(problem, coarse, cfg, quadrature, assemble=True):
@@ -33,11 +27,6 @@ def para_problem(problem, coarse, cfg, quadrature, assemble=True):
     return prob, examples.ring_initial(c["r0"])
 
 
-def time_grid(T, tau_target):
-    n = max(1, math.ceil(T / tau_target - 1e-9))
-    return np.linspace(0.0, T, n + 1)
-
-
 def lam_summary(problem, lam, upper):
     if lam is None:
         return {}
@@ -51,16 +40,17 @@ def main(problem, family, tag, cfg, quadrature, row_path, npz_path, threads):
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     pc = cfg["parabolic"]
     t_start = time.perf_counter()
+    # the reference run is a graded mesh (tag h…) with its own time-step factor
+    coarse = coarse_mesh("graded" if family == "reference" else family, tag,
+                         cfg["example1"]["grading"])
     if family == "reference":
-        coarse = ff.disk_graded(float(tag[1:]), cfg["example1"]["grading"])
         factor = pc["reference"]["tau_factor"]
     else:
-        coarse = coarse_mesh(family, tag, cfg["example1"]["grading"])
         factor = pc["tau_factor"][family]
     prob, u0 = para_problem(problem, coarse, cfg, ff.QuadratureOptions(**quadrature))
     s = prob.disc.s
     h = mesh_size(prob.fine)
-    times = time_grid(pc["T"], factor * h ** (2 * s))
+    times = parabolic.time_grid(T=pc["T"], tau=factor * h ** (2 * s))
     U, LAM, per_step = [], [], []
     t_steps = time.perf_counter()
     stepper = parabolic.Stepper(prob)

@@ -5,8 +5,8 @@ from pathlib import Path
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).parent))
-from elliptic_time import time_to_reach  # noqa: E402
-from plotstyle import MARKERS, plt, save  # noqa: E402
+from elliptic_time import time_panel  # noqa: E402
+from plotstyle import plt, save  # noqa: E402
 
 from fracfem.io import atomic_path  # noqa: E402
 
@@ -20,21 +20,8 @@ def main(csvs, md, png):
     fig, axes = plt.subplots(1, len(csvs), figsize=(4.2 * len(csvs), 3.8), squeeze=False)
     fastest = []
     for ax, (prob, d) in zip(axes[0], df.groupby("problem")):
-        level = d.groupby("family").error.min().max()
-        times = {}
-        for fam, g in d.groupby("family"):
-            g = g.sort_values("t_wall")
-            ax.loglog(g.t_wall, g.error, marker=MARKERS[fam], label=fam)
-            times[fam] = time_to_reach(g, level)
-        best = min(times, key=times.get)
-        fastest.append({"problem": prob, "common error": level,
-                        **{f"t_{k} [s]": v for k, v in sorted(times.items())},
-                        "fastest": best,
-                        "speed-up vs slowest": max(times.values()) / times[best]})
-        ax.axhline(level, color="grey", lw=0.6, ls="--")
-        ax.set_title(prob, fontsize=9)
-        ax.set_xlabel("wall time [s] (adaptive: all passes so far)")
-        ax.legend(fontsize=7)
+        fastest.append({"problem": prob, **time_panel(
+            ax, d, prob, xlabel="wall time [s] (adaptive: all passes so far)")})
     axes[0][0].set_ylabel(r"$L^2(0,T;H^s)$ error vs reference")
     save(fig, png)
     with atomic_path(md) as tmp:

@@ -15,7 +15,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from plotstyle import plt, save  # noqa: E402
 
 import fracfem as ff  # noqa: E402
-from fracfem.io import atomic_path, provenance, write_table  # noqa: E402
+from fracfem.io import atomic_path, with_provenance, write_table  # noqa: E402
 from fracfem.meshes import min_angle  # noqa: E402
 
 
@@ -60,9 +60,7 @@ def main(md, png, csv, threads):
         rows.append(case(f"grading {mu:g}, disk_graded_rings(12)",
                          ff.disk_graded_rings(12, mu), 0.5))
     df = pd.DataFrame(rows)
-    for k, v in provenance().items():
-        df[k] = v
-    write_table(df, csv)
+    write_table(with_provenance(df), csv)
     cols = ["case", "s", "dofs", "h_min", "min_angle", "error", "galerkin_ok", "spd", "cond",
             "quad_change_over_err2", "status"]
     with atomic_path(md) as tmp:

@@ -9,7 +9,7 @@ import pandas as pd
 
 import fracfem as ff
 from fracfem import examples, parabolic, vi
-from fracfem.io import atomic_path, provenance, write_table
+from fracfem.io import atomic_path, with_provenance, write_table
 from fracfem.meshes import min_angle
 from fracfem.solvers import ConvergenceError
 
@@ -164,12 +164,9 @@ def main(md, csv, threads):
     if "status" not in df:
         df["status"] = "ok"
     df["status"] = df["status"].fillna("ok")
-    for k, v in provenance().items():
-        df[k] = v
-    write_table(df, csv)
-    show = [c for c in df.columns if c not in provenance()]
+    write_table(with_provenance(df), csv)
     with atomic_path(md) as tmp:
-        tmp.write_text(df[show].to_markdown(index=False, floatfmt=".3g") + "\n")
+        tmp.write_text(df.to_markdown(index=False, floatfmt=".3g") + "\n")
 
 
 if __name__ == "__main__":

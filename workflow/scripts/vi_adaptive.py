@@ -9,7 +9,7 @@ from vi_solve import elliptic_builder
 
 import fracfem as ff
 from fracfem import adaptive, examples
-from fracfem.io import peak_memory_mb, provenance, save_arrays, write_table
+from fracfem.io import peak_memory_mb, save_arrays, with_provenance, write_table
 
 
 def main(problem, cfg, quadrature, table_path, npz_path, threads):
@@ -62,9 +62,7 @@ def main(problem, cfg, quadrature, table_path, npz_path, threads):
                        f"tc{k}": coarse.t, f"eta2_{k}": eta2})
     save_arrays(npz_path, **arrays)
     df = pd.DataFrame(rows)
-    for k, v in provenance().items():
-        df[k] = v
-    write_table(df, table_path)
+    write_table(with_provenance(df), table_path)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from fracfem import examples
-from fracfem.io import atomic_path, provenance, write_table
+from fracfem.io import atomic_path, with_provenance, write_table
 from fracfem.report import energy_error, extrapolate_energy, fit_rate
 
 WALL = ["t_mesh", "t_assembly", "t_factorisation", "t_schur", "t_pdas"]
@@ -84,9 +84,7 @@ def main(problem, cfg, series_csv, adaptive_csv, out_csv, out_json):
     info["rate_range_over_references"] = rates
     info["finest_error"] = float(finest)
     logging.info("%s", info)
-    for k, v in provenance().items():
-        df[k] = v
-    write_table(df, out_csv)
+    write_table(with_provenance(df), out_csv)
     clean = {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
              for k, v in info.items()}
     with atomic_path(out_json) as tmp:
