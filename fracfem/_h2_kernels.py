@@ -1,0 +1,436 @@
+"""Numba kernels of the compressed operator; plain-array signatures only.
+
+Far element pairs of the dense assembly use the Taylor-corrected centroid
+rule (:func:`fracfem._kernels.far_pairs`, level 0): every term is the kernel
+k(D) = |D|^(−2−2s), its gradient or its Hessian at D = c_T − c_T', times
+moments of T and T'.  Here k(x − y) is interpolated on tensor Chebyshev grids
+of the bounding boxes of element clusters (an H²-matrix with nested bases):
+k(x − y) ≈ Σ_αβ L^σ_α(x) k(ξ_α − ζ_β) L^τ_β(y).  Sources and targets are
+functionals c0·L + c1·∇L + c2:∇²L of the basis at element centroids, so the
+Taylor terms are represented exactly up to the interpolation error.
+
+Near element pairs (inadmissible leaf blocks) are computed with exactly the
+rules of the dense assembly and added into a node-level CSR pattern.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+
+# ---------------------------------------------------------------- Chebyshev
+
+
+@njit(cache=True)
+def cheb_basis_1d(xi, z, out):  # pragma: no cover
+    """Lagrange basis of the Chebyshev points z (m,) of the first kind at
+    xi ∈ [−1, 1]: out[0, i] = ℓ_i, out[1, i] = ℓ_i', out[2, i] = ℓ_i''.
+
+    ℓ_i = 1/m + (2/m) Σ_{k≥1} T_k(z_i) T_k(xi) (discrete orthogonality).
+    """
+    m = z.shape[0]
+    T = np.empty(m)
+    dT = np.empty(m)
+    d2T = np.empty(m)
+    T[0] = 1.0
+    dT[0] = 0.0
+    d2T[0] = 0.0
+    if m > 1:
+        T[1] = xi
+        dT[1] = 1.0
+        d2T[1] = 0.0
+    for k in range(1, m - 1):
+        T[k + 1] = 2.0 * xi * T[k] - T[k - 1]
+        dT[k + 1] = 2.0 * T[k] + 2.0 * xi * dT[k] - dT[k - 1]
+        d2T[k + 1] = 4.0 * dT[k] + 2.0 * xi * d2T[k] - d2T[k - 1]
+    for i in range(m):
+        zi = z[i]
+        tkm1 = 1.0
+        tk = zi
+        v = 1.0
+        d1 = 0.0
+        d2 = 0.0
+        for k in range(1, m):
+            v += 2.0 * tk * T[k]
+            d1 += 2.0 * tk * dT[k]
+            d2 += 2.0 * tk * d2T[k]
+            tn = 2.0 * zi * tk - tkm1
+            tkm1 = tk
+            tk = tn
+        out[0, i] = v / m
+        out[1, i] = d1 / m
+        out[2, i] = d2 / m
+
+
+@njit(cache=True)
+def _basis_2d(x, y, box, z, bx, by, L):  # pragma: no cover
+    """Tensor basis (value, ∂x, ∂y, ∂xx, ∂xy, ∂yy) at (x, y) in box
+    (cx, cy, hx, hy): L (6, m*m), index α = i*m + j (i along x)."""
+    m = z.shape[0]
+    cheb_basis_1d((x - box[0]) / box[2], z, bx)
+    cheb_basis_1d((y - box[1]) / box[3], z, by)
+    ix = 1.0 / box[2]
+    iy = 1.0 / box[3]
+    for i in range(m):
+        for j in range(m):
+            a = i * m + j
+            L[0, a] = bx[0, i] * by[0, j]
+            L[1, a] = bx[1, i] * by[0, j] * ix
+            L[2, a] = bx[0, i] * by[1, j] * iy
+            L[3, a] = bx[2, i] * by[0, j] * ix * ix
+            L[4, a] = bx[1, i] * by[1, j] * ix * iy
+            L[5, a] = bx[0, i] * by[2, j] * iy * iy
+
+
+@njit(cache=True)
+def _transfer_1d(parent, child, dim, z, E):  # pragma: no cover
+    """E[g, k] = ℓ^parent_k(child node g) along one dimension (m, m)."""
+    m = z.shape[0]
+    buf = np.empty((3, m))
+    for g in range(m):
+        x = child[dim] + child[dim + 2] * z[g]
+        cheb_basis_1d((x - parent[dim]) / parent[dim + 2], z, buf)
+        for k in range(m):
+            E[g, k] = buf[0, k]
+
+
+@njit(cache=True, parallel=True)
+def transfers(boxes, parent, z):  # pragma: no cover
+    """1D transfer matrices of every cluster to its parent (nc, 2, m, m);
+    the root's are unused."""
+    nc = boxes.shape[0]
+    m = z.shape[0]
+    E = np.zeros((nc, 2, m, m))
+    for c in prange(nc):
+        p = parent[c]
+        if p < 0:
+            continue
+        _transfer_1d(boxes[p], boxes[c], 0, z, E[c, 0])
+        _transfer_1d(boxes[p], boxes[c], 1, z, E[c, 1])
+    return E
+
+
+@njit(cache=True)
+def _grid(box, z, X):  # pragma: no cover
+    m = z.shape[0]
+    for i in range(m):
+        for j in range(m):
+            X[i * m + j, 0] = box[0] + box[2] * z[i]
+            X[i * m + j, 1] = box[1] + box[3] * z[j]
+
+
+@njit(cache=True, parallel=True)
+def coupling_matrices(boxes, far_rows, far_cols, z, s):  # pragma: no cover
+    """K[b, α, β] = k(ξ^σ_α − ζ^τ_β) of every admissible block b = (σ, τ)."""
+    nb = far_rows.shape[0]
+    m = z.shape[0]
+    p = m * m
+    expo = -1.0 - s
+    K = np.empty((nb, p, p))
+    for b in prange(nb):
+        X = np.empty((p, 2))
+        Y = np.empty((p, 2))
+        _grid(boxes[far_rows[b]], z, X)
+        _grid(boxes[far_cols[b]], z, Y)
+        for a in range(p):
+            for c in range(p):
+                dx = X[a, 0] - Y[c, 0]
+                dy = X[a, 1] - Y[c, 1]
+                K[b, a, c] = (dx * dx + dy * dy) ** expo
+    return K
+
+
+@njit(cache=True)
+def _apply_1d_pair(Ex, Ey, w, out, transpose, m):  # pragma: no cover
+    """out += (Ex ⊗ Ey) w (or its transpose), w and out of length m*m."""
+    tmp = np.zeros((m, m))
+    if transpose:
+        # out[k, l] += Σ_gh Ex[g, k] Ey[h, l] w[g, h]
+        for g in range(m):
+            for l in range(m):
+                acc = 0.0
+                for h in range(m):
+                    acc += Ey[h, l] * w[g * m + h]
+                tmp[g, l] = acc
+        for k in range(m):
+            for l in range(m):
+                acc = 0.0
+                for g in range(m):
+                    acc += Ex[g, k] * tmp[g, l]
+                out[k * m + l] += acc
+    else:
+        # out[g, h] += Σ_kl Ex[g, k] Ey[h, l] w[k, l]
+        for k in range(m):
+            for h in range(m):
+                acc = 0.0
+                for l in range(m):
+                    acc += Ey[h, l] * w[k * m + l]
+                tmp[k, h] = acc
+        for g in range(m):
+            for h in range(m):
+                acc = 0.0
+                for k in range(m):
+                    acc += Ex[g, k] * tmp[k, h]
+                out[g * m + h] += acc
+
+
+@njit(cache=True, parallel=True)
+def leaf_moments(src, cent, perm, leaves, cl_start, cl_end, boxes, z, W):  # pragma: no cover
+    """W[leaf, r, β] = Σ_{T in leaf} src[T, r] · (L_β, ∇L_β, ∇²L_β)(c_T),
+    src (Nt, nrhs, 6) = (c0, c1x, c1y, c2xx, c2xy, c2yy); the Hessian
+    contraction counts the mixed entry twice (c2 a symmetric matrix)."""
+    m = z.shape[0]
+    p = m * m
+    nrhs = src.shape[1]
+    for li in prange(leaves.shape[0]):
+        c = leaves[li]
+        bx = np.empty((3, m))
+        by = np.empty((3, m))
+        L = np.empty((6, p))
+        for r in range(nrhs):
+            for a in range(p):
+                W[c, r, a] = 0.0
+        for k in range(cl_start[c], cl_end[c]):
+            T = perm[k]
+            _basis_2d(cent[T, 0], cent[T, 1], boxes[c], z, bx, by, L)
+            for r in range(nrhs):
+                s0 = src[T, r, 0]
+                s1 = src[T, r, 1]
+                s2 = src[T, r, 2]
+                s3 = src[T, r, 3]
+                s4 = 2.0 * src[T, r, 4]
+                s5 = src[T, r, 5]
+                for a in range(p):
+                    W[c, r, a] += (s0 * L[0, a] + s1 * L[1, a] + s2 * L[2, a]
+                                   + s3 * L[3, a] + s4 * L[4, a] + s5 * L[5, a])
+
+
+@njit(cache=True, parallel=True)
+def upward(W, E, level_nodes, level_ptr, child0, child1, m):  # pragma: no cover
+    """W[parent] = Σ_children E_childᵀ W[child], deepest level first."""
+    nrhs = W.shape[1]
+    p = m * m
+    nlev = level_ptr.shape[0] - 1
+    for lev in range(nlev - 1, -1, -1):
+        for ii in prange(level_ptr[lev], level_ptr[lev + 1]):
+            c = level_nodes[ii]
+            a = child0[c]
+            if a < 0:
+                continue
+            b = child1[c]
+            for r in range(nrhs):
+                for k in range(p):
+                    W[c, r, k] = 0.0
+                _apply_1d_pair(E[a, 0], E[a, 1], W[a, r], W[c, r], True, m)
+                _apply_1d_pair(E[b, 0], E[b, 1], W[b, r], W[c, r], True, m)
+
+
+@njit(cache=True, parallel=True)
+def couple(G, W, K, blk_ptr, blk_col, blk_idx, rows):  # pragma: no cover
+    """G[σ] = Σ_{admissible (σ, τ)} K_στ W[τ], blocks grouped by σ."""
+    nrhs = W.shape[1]
+    p = W.shape[2]
+    for ii in prange(rows.shape[0]):
+        c = rows[ii]
+        for r in range(nrhs):
+            for a in range(p):
+                G[c, r, a] = 0.0
+        for q in range(blk_ptr[ii], blk_ptr[ii + 1]):
+            tau = blk_col[q]
+            b = blk_idx[q]
+            for a in range(p):
+                for r in range(nrhs):
+                    acc = 0.0
+                    for cc in range(p):
+                        acc += K[b, a, cc] * W[tau, r, cc]
+                    G[c, r, a] += acc
+
+
+@njit(cache=True, parallel=True)
+def downward(G, E, level_nodes, level_ptr, child0, child1, m):  # pragma: no cover
+    """G[child] += E_child G[parent], top level first."""
+    nrhs = G.shape[1]
+    nlev = level_ptr.shape[0] - 1
+    for lev in range(nlev):
+        for ii in prange(level_ptr[lev], level_ptr[lev + 1]):
+            c = level_nodes[ii]
+            a = child0[c]
+            if a < 0:
+                continue
+            b = child1[c]
+            for r in range(nrhs):
+                _apply_1d_pair(E[a, 0], E[a, 1], G[c, r], G[a, r], False, m)
+                _apply_1d_pair(E[b, 0], E[b, 1], G[c, r], G[b, r], False, m)
+
+
+@njit(cache=True, parallel=True)
+def leaf_evaluate(G, cent, perm, leaves, cl_start, cl_end, boxes, z, out):  # pragma: no cover
+    """out[T, r, :] = (g, ∂x g, ∂y g, ∂xx g, ∂xy g, ∂yy g)(c_T) of the local
+    expansion g = Σ_α G[leaf, r, α] L_α."""
+    m = z.shape[0]
+    p = m * m
+    nrhs = G.shape[1]
+    for li in prange(leaves.shape[0]):
+        c = leaves[li]
+        bx = np.empty((3, m))
+        by = np.empty((3, m))
+        L = np.empty((6, p))
+        for k in range(cl_start[c], cl_end[c]):
+            T = perm[k]
+            _basis_2d(cent[T, 0], cent[T, 1], boxes[c], z, bx, by, L)
+            for r in range(nrhs):
+                for d in range(6):
+                    acc = 0.0
+                    for a in range(p):
+                        acc += G[c, r, a] * L[d, a]
+                    out[T, r, d] = acc
+
+
+# ---------------------------------------------------------------- near field
+
+
+@njit(cache=True)
+def _csr_add(indptr, indices, data, i, j, v):  # pragma: no cover
+    lo = indptr[i]
+    hi = indptr[i + 1] - 1
+    while lo <= hi:
+        mid = (lo + hi) >> 1
+        cm = indices[mid]
+        if cm == j:
+            data[mid] += v
+            return
+        if cm < j:
+            lo = mid + 1
+        else:
+            hi = mid - 1
+    raise IndexError("entry outside the near-field pattern")
+
+
+@njit(cache=True, parallel=True)
+def near_pairs(t, perm, cl_start, cl_end, near_rows, near_cols, cent, diam, area, mom,
+               grad, qx, qw, lam, offsets, thresholds, taylor, s,
+               indptr, indices, nchunks):  # pragma: no cover
+    """Separated element pairs of the near blocks with the dense assembly's
+    rules (:func:`fracfem._kernels.far_pairs`); touching pairs are skipped.
+
+    Each unordered pair once: blocks with σ < τ whole, σ = τ for T < T'.
+    Off-diagonal parts X and Xᵀ go into per-chunk copies of the CSR data
+    (nchunks, nnz); D (nchunks, nt, nq_total + 4) as in far_pairs.
+    """
+    nt = t.shape[0]
+    nlev = offsets.shape[0] - 1
+    nqt = offsets[nlev]
+    expo = -1.0 - s
+    alpha = -2.0 - 2.0 * s
+    data = np.zeros((nchunks, indices.shape[0]))
+    D = np.zeros((nchunks, nt, nqt + 4))
+    nb = near_rows.shape[0]
+    for c in prange(nchunks):
+        W = np.empty((64, 64))
+        V = np.empty((3, 64))
+        X = np.empty((3, 3))
+        for bb in range(c, nb, nchunks):
+            sig = near_rows[bb]
+            tau = near_cols[bb]
+            if sig > tau:
+                continue
+            for k1 in range(cl_start[sig], cl_end[sig]):
+                T = perm[k1]
+                i0, i1, i2 = t[T, 0], t[T, 1], t[T, 2]
+                k2s = cl_start[tau]
+                if sig == tau:
+                    k2s = k1 + 1
+                for k2 in range(k2s, cl_end[tau]):
+                    T2 = perm[k2]
+                    j0, j1, j2 = t[T2, 0], t[T2, 1], t[T2, 2]
+                    if (i0 == j0 or i0 == j1 or i0 == j2 or i1 == j0 or i1 == j1
+                            or i1 == j2 or i2 == j0 or i2 == j1 or i2 == j2):
+                        continue
+                    dx = cent[T, 0] - cent[T2, 0]
+                    dy = cent[T, 1] - cent[T2, 1]
+                    hm = max(diam[T], diam[T2])
+                    r2 = dx * dx + dy * dy
+                    lev = nlev - 1
+                    for L in range(nlev - 1):
+                        if r2 >= thresholds[L] * thresholds[L] * hm * hm:
+                            lev = L
+                            break
+                    q0 = offsets[lev]
+                    nq = offsets[lev + 1] - q0
+                    if taylor and lev == 0:
+                        k = r2 ** expo
+                        kr = alpha * k / r2
+                        gx = kr * dx
+                        gy = kr * dy
+                        hxx = kr * (1.0 + (alpha - 2.0) * dx * dx / r2)
+                        hxy = kr * (alpha - 2.0) * dx * dy / r2
+                        hyy = kr * (1.0 + (alpha - 2.0) * dy * dy / r2)
+                        A1 = area[T]
+                        A2 = area[T2]
+                        tr1 = hxx * mom[T, 0] + 2.0 * hxy * mom[T, 1] + hyy * mom[T, 2]
+                        tr2 = hxx * mom[T2, 0] + 2.0 * hxy * mom[T2, 1] + hyy * mom[T2, 2]
+                        C0 = A1 * A2 * k + 0.5 * (A2 * tr1 + A1 * tr2)
+                        a1x = A2 * (mom[T, 0] * gx + mom[T, 1] * gy)
+                        a1y = A2 * (mom[T, 1] * gx + mom[T, 2] * gy)
+                        a2x = A1 * (mom[T2, 0] * gx + mom[T2, 1] * gy)
+                        a2y = A1 * (mom[T2, 1] * gx + mom[T2, 2] * gy)
+                        D[c, T, 0] += C0
+                        D[c, T2, 0] += C0
+                        D[c, T, 1] += a1x
+                        D[c, T, 2] += a1y
+                        D[c, T2, 1] -= a2x
+                        D[c, T2, 2] -= a2y
+                        D[c, T, 3] += k * A2
+                        D[c, T2, 3] += k * A1
+                        for a in range(3):
+                            pa = (a1x * grad[T, a, 0] + a1y * grad[T, a, 1]) / 3.0
+                            for b in range(3):
+                                pb = (a2x * grad[T2, b, 0] + a2y * grad[T2, b, 1]) / 3.0
+                                X[a, b] = -(C0 / 9.0 - pb + pa)
+                    else:
+                        for q in range(nq):
+                            xq0 = qx[T, q0 + q, 0]
+                            xq1 = qx[T, q0 + q, 1]
+                            wqq = qw[T, q0 + q]
+                            for r in range(nq):
+                                ex = xq0 - qx[T2, q0 + r, 0]
+                                ey = xq1 - qx[T2, q0 + r, 1]
+                                W[q, r] = wqq * qw[T2, q0 + r] * (ex * ex + ey * ey) ** expo
+                        for q in range(nq):
+                            sq = 0.0
+                            sr = 0.0
+                            for r in range(nq):
+                                sq += W[q, r]
+                                sr += W[r, q]
+                            D[c, T, 4 + q0 + q] += sq
+                            D[c, T2, 4 + q0 + q] += sr
+                        for a in range(3):
+                            for r in range(nq):
+                                acc = 0.0
+                                for q in range(nq):
+                                    acc += lam[q0 + q, a] * W[q, r]
+                                V[a, r] = acc
+                        for a in range(3):
+                            for b in range(3):
+                                acc = 0.0
+                                for r in range(nq):
+                                    acc += V[a, r] * lam[q0 + r, b]
+                                X[a, b] = -acc
+                    for a in range(3):
+                        ia = t[T, a]
+                        for b in range(3):
+                            jb = t[T2, b]
+                            _csr_add(indptr, indices, data[c], ia, jb, X[a, b])
+                            _csr_add(indptr, indices, data[c], jb, ia, X[a, b])
+    return data, D
+
+
+@njit(cache=True)
+def scatter_csr(indptr, indices, data, nodes, local, factor):  # pragma: no cover
+    """data[(nodes[k, a], nodes[k, b])] += factor * local[k, a, b]."""
+    n, m = nodes.shape
+    for k in range(n):
+        for a in range(m):
+            for b in range(m):
+                _csr_add(indptr, indices, data, nodes[k, a], nodes[k, b],
+                         factor * local[k, a, b])

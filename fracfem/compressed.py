@@ -1,0 +1,413 @@
+"""The free-node stiffness operator in compressed (H²-matrix) form.
+
+The operator equals the dense :func:`fracfem.stiffness_matrix` restricted to
+the free nodes up to the compression error, which follows ``tol``:
+
+* element clusters: a binary tree over element centroids (bisection of the
+  longest side of the bounding box at the median);
+* a block (σ, τ) is admissible when the centroid boxes satisfy
+  dist ≥ max(max(diam σ, diam τ)/eta, R·h_max(σ ∪ τ)), R the separation ratio
+  from which the dense assembly uses its Taylor-corrected centroid rule
+  (``QuadratureOptions.far_thresholds[0]``): every pair of an admissible block
+  is then integrated by that rule, whose terms are k, ∇k and ∇²k at centroid
+  differences times element moments;
+* admissible blocks: k(x − y) interpolated on tensor Chebyshev grids of order
+  m per direction on both boxes, with nested bases (1D transfer matrices);
+* near blocks (inadmissible leaves): the element pairs with exactly the rules
+  of the dense assembly, in a node-level sparse matrix, together with the
+  touching pairs, κ and the far-field diagonal terms (the u(x)v(x) parts of
+  every far pair, summed over the far field with the same H² passes).
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from . import _h2_kernels as hk
+from . import _kernels
+from .assembly import (QuadratureOptions, _boundary_edges, _element_geometry,
+                       _element_moments, _far_rules, _kappa_local, _singular_local,
+                       mesh_arrays, touching_pairs)
+from .exact import c2s, check_s
+
+log = logging.getLogger(__name__)
+
+__all__ = ["CompressedOperator", "stiffness_operator", "chebyshev_order"]
+
+DEFAULT_TOL = 1e-8
+DEFAULT_ETA = 1.0
+DEFAULT_LEAF = 24
+
+
+def chebyshev_order(tol: float) -> int:
+    """Interpolation order per direction for a relative tolerance ``tol``."""
+    tol = float(tol)
+    if not (np.isfinite(tol) and 1e-14 <= tol < 1.0):
+        raise ValueError(f"tol={tol!r} must be a number in [1e-14, 1)")
+    # measured (tests/test_compressed.py, benchmarks/bench_compressed.py): the
+    # relative matvec error falls by about 10 per order at eta = 1 and is below
+    # 10^(1 - m) on the disk, square and L-shape for s in [0.1, 0.9]
+    return int(min(14, max(3, math.ceil(-math.log10(tol) - 1e-9) - 1)))
+
+
+# ---------------------------------------------------------------- trees
+
+
+def cluster_tree(cent: np.ndarray, diam: np.ndarray, leaf_size: int) -> dict:
+    """Binary cluster tree of the element centroids on dyadic boxes.
+
+    The root is a square around all centroids; a cluster's box is halved
+    along its longer side (x first) until it holds at most ``leaf_size``
+    elements, empty halves being skipped.  Every box is a dyadic rectangle
+    (dx, dy, ix, iy): side L/2^dx by L/2^dy at integer position (ix, iy), so
+    the coupling matrices of far blocks depend only on a few integers.
+    """
+    nt = len(cent)
+    perm = np.arange(nt, dtype=np.int64)
+    lo0 = cent.min(0)
+    L = float((cent.max(0) - lo0).max()) * (1.0 + 1e-9) + 1e-300
+    start, end, parent, level, c0, c1, box = [0], [nt], [-1], [0], [], [], [[0, 0, 0, 0]]
+    i = 0
+    while i < len(start):
+        a, b = start[i], end[i]
+        c0.append(-1)
+        c1.append(-1)
+        if b - a > leaf_size:
+            idx = perm[a:b]
+            dx, dy, ix, iy = box[i]
+            for _ in range(120):
+                dim = 0 if dx <= dy else 1
+                if dim == 0:
+                    mid = lo0[0] + (2 * ix + 1) * L / 2.0 ** (dx + 1)
+                else:
+                    mid = lo0[1] + (2 * iy + 1) * L / 2.0 ** (dy + 1)
+                left = cent[idx, dim] < mid
+                nl = int(left.sum())
+                halves = [[dx + 1, dy, 2 * ix, iy], [dx + 1, dy, 2 * ix + 1, iy]] if dim == 0 \
+                    else [[dx, dy + 1, ix, 2 * iy], [dx, dy + 1, ix, 2 * iy + 1]]
+                if 0 < nl < len(idx):
+                    break
+                dx, dy, ix, iy = halves[0] if nl else halves[1]
+            box[i] = [dx, dy, ix, iy]
+            if not 0 < nl < len(idx):       # coincident centroids: keep as a leaf
+                i += 1
+                continue
+            perm[a:b] = np.concatenate([idx[left], idx[~left]])
+            for lo, hi, bx in ((a, a + nl, halves[0]), (a + nl, b, halves[1])):
+                start.append(lo)
+                end.append(hi)
+                parent.append(i)
+                level.append(level[i] + 1)
+                box.append(bx)
+            c0[i], c1[i] = len(start) - 2, len(start) - 1
+        i += 1
+    start = np.array(start, dtype=np.int64)
+    end = np.array(end, dtype=np.int64)
+    dyadic = np.array(box, dtype=np.int64)
+    nc = len(start)
+    # tight bounding boxes and largest element diameter of every cluster
+    tlo = np.empty((nc, 2))
+    thi = np.empty((nc, 2))
+    hmax = np.empty(nc)
+    for k in range(nc):
+        idx = perm[start[k]:end[k]]
+        pts = cent[idx]
+        tlo[k], thi[k] = pts.min(0), pts.max(0)
+        hmax[k] = diam[idx].max()
+    side = L / 2.0 ** dyadic[:, :2]
+    blo = lo0 + dyadic[:, 2:] * side
+    boxes = np.column_stack([blo + 0.5 * side, 0.5 * side])
+    level = np.array(level, dtype=np.int64)
+    order = np.argsort(level, kind="stable")
+    level_ptr = np.searchsorted(level[order], np.arange(level.max() + 2)).astype(np.int64)
+    return dict(perm=perm, start=start, end=end, parent=np.array(parent, dtype=np.int64),
+                child0=np.array(c0, dtype=np.int64), child1=np.array(c1, dtype=np.int64),
+                lo=blo, hi=blo + side, tlo=tlo, thi=thi, dyadic=dyadic,
+                boxes=np.ascontiguousarray(boxes), hmax=hmax,
+                level_nodes=order.astype(np.int64), level_ptr=level_ptr)
+
+
+def block_keys(dyadic: np.ndarray, far: np.ndarray) -> np.ndarray:
+    """Integer key of each far block: both boxes' dyadic depths and the offset
+    of τ from σ in units of the finer resolution (equal keys, equal K)."""
+    a, b = dyadic[far[:, 0]], dyadic[far[:, 1]]
+    D = np.maximum(a[:, :2], b[:, :2])
+    off = (b[:, 2:] << (D - b[:, :2])) - (a[:, 2:] << (D - a[:, :2]))
+    return np.column_stack([a[:, :2], b[:, :2], off])
+
+
+def _box_distance(lo, hi, a, b):
+    gap = np.maximum(0.0, np.maximum(lo[a] - hi[b], lo[b] - hi[a]))
+    return np.sqrt(np.sum(gap * gap, axis=-1))
+
+
+def block_tree(tree: dict, eta: float, ratio: float) -> tuple[np.ndarray, np.ndarray]:
+    """Admissible (far) and inadmissible leaf (near) blocks, as (n, 2) arrays
+    of cluster pairs; both orders of every pair are listed."""
+    lo, hi, hmax = tree["lo"], tree["hi"], tree["hmax"]
+    tlo, thi = tree["tlo"], tree["thi"]
+    c0, c1 = tree["child0"], tree["child1"]
+    diam = np.sqrt(np.sum((hi - lo) ** 2, axis=1))
+    far, near = [], []
+    a = np.array([0])
+    b = np.array([0])
+    while a.size:
+        # interpolation needs separated boxes; the Taylor rule of the dense
+        # assembly needs every centroid pair R·h apart
+        adm = ((_box_distance(lo, hi, a, b) >= np.maximum(diam[a], diam[b]) / eta)
+               & (_box_distance(tlo, thi, a, b) >= ratio * np.maximum(hmax[a], hmax[b])))
+        far.append(np.column_stack([a[adm], b[adm]]))
+        a, b = a[~adm], b[~adm]
+        la, lb = c0[a] < 0, c0[b] < 0
+        leaf = la & lb
+        near.append(np.column_stack([a[leaf], b[leaf]]))
+        # split every non-leaf side (both when both are clusters)
+        na, nb_ = [], []
+        a, b, la, lb = a[~leaf], b[~leaf], la[~leaf], lb[~leaf]
+        ca = [np.where(la, a, c0[a]), np.where(la, a, c1[a])]
+        cb = [np.where(lb, b, c0[b]), np.where(lb, b, c1[b])]
+        for i, x in enumerate(ca):
+            for j, y in enumerate(cb):
+                keep = np.ones(len(a), dtype=bool)
+                if i == 1:
+                    keep &= ~la          # a leaf side has one "child": itself
+                if j == 1:
+                    keep &= ~lb
+                na.append(x[keep])
+                nb_.append(y[keep])
+        a = np.concatenate(na) if na else np.array([], dtype=np.int64)
+        b = np.concatenate(nb_) if nb_ else np.array([], dtype=np.int64)
+    return (np.concatenate(far).astype(np.int64), np.concatenate(near).astype(np.int64))
+
+
+# ---------------------------------------------------------------- operator
+
+
+class CompressedOperator(spla.LinearOperator):
+    """Free-node stiffness operator: ``op @ x``, ``op.diagonal()``, ``op.nbytes``."""
+
+    def __init__(self, near: sp.csr_matrix, far: dict, free: np.ndarray, nv: int,
+                 t: np.ndarray, info: dict):
+        n = len(free)
+        super().__init__(dtype=np.float64, shape=(n, n))
+        self.near = near
+        self._far = far
+        self.free = free
+        self._nv = nv
+        self._t = t
+        self.info = info
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the representation (sparse near field, H² data)."""
+        n = self.near.data.nbytes + self.near.indices.nbytes + self.near.indptr.nbytes
+        return int(n + sum(v.nbytes for v in self._far.values()
+                           if isinstance(v, np.ndarray)))
+
+    def diagonal(self) -> np.ndarray:
+        """Exact diagonal (far blocks couple no node with itself)."""
+        return self.near.diagonal()
+
+    def far_matvec(self, x: np.ndarray) -> np.ndarray:
+        """The admissible-block part alone (free nodes)."""
+        f = self._far
+        xa = np.zeros(self._nv)
+        xa[self.free] = x
+        xe = xa[self._t]                                   # (Nt, 3)
+        sx = xe.sum(1)
+        gu = np.einsum("tad,ta->td", f["grad"], xe)         # ∇u_h on T
+        mom = f["mom"]
+        src = np.zeros((len(xe), 2, 6))
+        src[:, 0, 0] = f["area"] / 3.0 * sx
+        src[:, 1, 1] = mom[:, 0] * gu[:, 0] + mom[:, 1] * gu[:, 1]
+        src[:, 1, 2] = mom[:, 1] * gu[:, 0] + mom[:, 2] * gu[:, 1]
+        src[:, 1, 3:6] = mom * (sx / 6.0)[:, None]
+        out = _far_pass(f, src)
+        g1, g2 = out[:, 0], out[:, 1]
+        # (1/6) M:∇²G1, (M∇λ_a)·∇G1
+        mh = (mom[:, 0] * g1[:, 3] + 2.0 * mom[:, 1] * g1[:, 4] + mom[:, 2] * g1[:, 5]) / 6.0
+        mg = np.column_stack([mom[:, 0] * g1[:, 1] + mom[:, 1] * g1[:, 2],
+                              mom[:, 1] * g1[:, 1] + mom[:, 2] * g1[:, 2]])
+        ye = (f["area"] / 3.0 * (g1[:, 0] + g2[:, 0]) + mh)[:, None] \
+            + np.einsum("tad,td->ta", f["grad"], mg)
+        ye *= -f["c"]
+        y = np.bincount(self._t.ravel(), weights=ye.ravel(), minlength=self._nv)
+        return y[self.free]
+
+    def _matvec(self, x):
+        x = np.asarray(x, dtype=np.float64).reshape(-1)
+        return self.near @ x + self.far_matvec(x)
+
+    def _rmatvec(self, x):
+        return self._matvec(x)
+
+
+def _far_pass(f: dict, src: np.ndarray) -> np.ndarray:
+    """Σ over admissible blocks of k applied to source functionals; returns
+    value, gradient and Hessian of the result at every centroid."""
+    nc, p, m = f["boxes"].shape[0], f["z"].shape[0] ** 2, f["z"].shape[0]
+    nrhs = src.shape[1]
+    W = np.zeros((nc, nrhs, p))
+    hk.leaf_moments(src, f["cent"], f["perm"], f["leaves"], f["start"], f["end"],
+                    f["boxes"], f["z"], W)
+    hk.upward(W, f["E"], f["level_nodes"], f["level_ptr"], f["child0"], f["child1"], m)
+    G = np.zeros((nc, nrhs, p))
+    hk.couple(G, W, f["K"], f["blk_ptr"], f["blk_col"], f["blk_idx"], f["blk_rows"])
+    hk.downward(G, f["E"], f["level_nodes"], f["level_ptr"], f["child0"], f["child1"], m)
+    out = np.zeros((len(src), nrhs, 6))
+    hk.leaf_evaluate(G, f["cent"], f["perm"], f["leaves"], f["start"], f["end"],
+                     f["boxes"], f["z"], out)
+    return out
+
+
+def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray, nv: int) -> sp.csr_matrix:
+    """Node pairs of the near blocks (structure only, sorted indices)."""
+    nc = len(tree["start"])
+    perm = tree["perm"]
+    owner = np.empty(len(t), dtype=np.int64)
+    leaves = np.flatnonzero(tree["child0"] < 0)
+    for c in leaves:
+        owner[perm[tree["start"][c]:tree["end"][c]]] = c
+    inc = sp.csr_matrix((np.ones(3 * len(t), dtype=np.int8),
+                         (np.repeat(owner, 3), t.ravel())), shape=(nc, nv))
+    inc.data[:] = 1
+    inc.sum_duplicates()
+    inc.data[:] = 1
+    nb = sp.csr_matrix((np.ones(len(near), dtype=np.int8), (near[:, 0], near[:, 1])),
+                       shape=(nc, nc))
+    pat = (inc.T.tocsr().astype(np.int32) @ (nb.astype(np.int32) @ inc.astype(np.int32)))
+    pat = pat.tocsr()
+    pat.sort_indices()
+    return sp.csr_matrix((np.zeros(pat.nnz), pat.indices.astype(np.int64),
+                          pat.indptr.astype(np.int64)), shape=(nv, nv))
+
+
+def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
+                       quadrature: QuadratureOptions | None = None,
+                       eta: float = DEFAULT_ETA, leaf_size: int = DEFAULT_LEAF,
+                       order: int | None = None) -> CompressedOperator:
+    """Compressed free-node stiffness operator (interior nodes in
+    ``mesh.interior_nodes()`` order).
+
+    Parameters
+    ----------
+    mesh : skfem.MeshTri of a polygon
+    s : fractional order in (0, 1)
+    tol : relative accuracy of the far-field interpolation, in [1e-14, 1)
+    quadrature : the rules of the dense assembly it reproduces
+    eta : admissibility max(diam) ≤ eta·dist, in (0, 4]
+    leaf_size : elements per leaf cluster, in [4, 512]
+    order : Chebyshev points per direction (overrides ``tol``), in [2, 14]
+    """
+    s = check_s(s)
+    m = chebyshev_order(tol) if order is None else int(order)
+    if not 2 <= m <= 14:
+        raise ValueError(f"order={order!r} must be an integer in [2, 14]")
+    if not (np.isfinite(eta) and 0.0 < eta <= 4.0):
+        raise ValueError(f"eta={eta!r} must be in (0, 4]")
+    if not (isinstance(leaf_size, (int, np.integer)) and 4 <= leaf_size <= 512):
+        raise ValueError(f"leaf_size={leaf_size!r} must be an integer in [4, 512]")
+    quad = quadrature or QuadratureOptions()
+    if quad.far_orders[0] != 0:
+        raise ValueError("the compressed operator needs the Taylor rule for the farthest "
+                         f"class: QuadratureOptions.far_orders[0] = 0, got {quad.far_orders!r}")
+    p, t = mesh_arrays(mesh)
+    nv, nt = len(p), len(t)
+    c = c2s(s)
+    tim = {}
+    t0 = time.perf_counter()
+
+    geometry = _element_geometry(p, t)
+    area2, cent, diam = geometry
+    area, mom, grad = _element_moments(p, t)
+    tree = cluster_tree(cent, diam, int(leaf_size))
+    far, near = block_tree(tree, float(eta), float(quad.far_thresholds[0]))
+    tim["trees"] = time.perf_counter() - t0
+
+    t1 = time.perf_counter()
+    A = _near_pattern(tree, near, t, nv)
+    indptr, indices = A.indptr, A.indices
+    qx, qw, lam, offs = _far_rules(p, t, quad.far_orders, area2)
+    import numba
+    nchunks = numba.get_num_threads()
+    data, D = hk.near_pairs(t, tree["perm"], tree["start"], tree["end"],
+                            near[:, 0].copy(), near[:, 1].copy(), cent, diam, area, mom,
+                            grad, qx, qw, lam, offs,
+                            np.asarray(quad.far_thresholds, dtype=np.float64), True, s,
+                            indptr, indices, nchunks)
+    del qx, qw
+    A.data = c * data.sum(axis=0)
+    del data
+    D = D.sum(axis=0)
+    tim["near"] = time.perf_counter() - t1
+
+    t2 = time.perf_counter()
+    edge_nodes, vertex_nodes = touching_pairs(t)
+    for nodes, kind, n, fac in ((t, "coincident", quad.coincident, 0.5 * c),
+                                (edge_nodes, "edge", quad.edge, c),
+                                (vertex_nodes, "vertex", quad.vertex, c)):
+        loc = _singular_local(p, nodes, kind, n, s)
+        hk.scatter_csr(indptr, indices, A.data, nodes, loc, fac)
+    tim["singular"] = time.perf_counter() - t2
+
+    t3 = time.perf_counter()
+    z = np.cos((2.0 * np.arange(m) + 1.0) * np.pi / (2.0 * m))
+    fr = far[np.lexsort((far[:, 1], far[:, 0]))]
+    rows, ptr = np.unique(fr[:, 0], return_index=True)
+    # blocks of equal geometry share one coupling matrix
+    _, first, inverse = np.unique(block_keys(tree["dyadic"], fr), axis=0,
+                                  return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    fdata = dict(
+        z=z, boxes=tree["boxes"], cent=cent, perm=tree["perm"],
+        leaves=np.flatnonzero(tree["child0"] < 0).astype(np.int64),
+        start=tree["start"], end=tree["end"], child0=tree["child0"], child1=tree["child1"],
+        level_nodes=tree["level_nodes"], level_ptr=tree["level_ptr"],
+        E=hk.transfers(tree["boxes"], tree["parent"], z),
+        K=hk.coupling_matrices(tree["boxes"], fr[first, 0].copy(), fr[first, 1].copy(), z, s),
+        blk_rows=rows.astype(np.int64), blk_ptr=np.append(ptr, len(fr)).astype(np.int64),
+        blk_col=fr[:, 1].copy(), blk_idx=inverse.astype(np.int64),
+        area=area, mom=mom, grad=grad, c=c)
+    tim["coupling"] = time.perf_counter() - t3
+
+    # far-field diagonal terms: sums over every far T' of the Taylor terms
+    t4 = time.perf_counter()
+    src = np.zeros((nt, 2, 6))
+    src[:, 0, 0] = area
+    src[:, 1, 3:6] = mom
+    out = _far_pass(fdata, src)
+    S0, S1, S2, S3 = out[:, 0, 0], out[:, 0, 1:3], out[:, 0, 3:6], out[:, 1, 0]
+    MS2 = mom[:, 0] * S2[:, 0] + 2.0 * mom[:, 1] * S2[:, 1] + mom[:, 2] * S2[:, 2]
+    D[:, 0] += area * S0 + 0.5 * MS2 + 0.5 * area * S3
+    D[:, 1] += mom[:, 0] * S1[:, 0] + mom[:, 1] * S1[:, 1]
+    D[:, 2] += mom[:, 1] * S1[:, 0] + mom[:, 2] * S1[:, 1]
+    D[:, 3] += S0
+    E = np.einsum("tq,qa,qb->tab", D[:, 4:], lam, lam)
+    al = np.einsum("td,tad->ta", D[:, 1:3], grad) / 3.0
+    Imat = np.stack([mom[:, [0, 1]], mom[:, [1, 2]]], axis=1)
+    E += (D[:, 0, None, None] / 9.0 + al[:, :, None] + al[:, None, :]
+          + D[:, 3, None, None] * np.einsum("tad,tde,tbe->tab", grad, Imat, grad))
+    hk.scatter_csr(indptr, indices, A.data, t, E, c)
+    tim["far_diagonal"] = time.perf_counter() - t4
+
+    t5 = time.perf_counter()
+    edges, bnodes = _boundary_edges(p, t)
+    Kloc = _kappa_local(p, t, bnodes, edges, s, quad, geometry)
+    hk.scatter_csr(indptr, indices, A.data, t, Kloc, c)
+    tim["exterior"] = time.perf_counter() - t5
+
+    free = np.asarray(mesh.interior_nodes(), dtype=np.int64)
+    Af = A[free][:, free].tocsr()
+    del A
+    tim["total"] = time.perf_counter() - t0
+    info = dict(order=m, tol=tol, eta=eta, leaf_size=leaf_size, clusters=len(tree["start"]),
+                far_blocks=len(far), coupling_matrices=len(first), near_blocks=len(near), near_nnz=Af.nnz, timings=tim)
+    log.info("compressed operator: %d free nodes, %d far / %d near blocks, order %d, "
+             "%.1f MB, %.2f s", len(free), len(far), len(near), m,
+             (Af.data.nbytes + fdata["K"].nbytes) / 2**20, tim["total"])
+    return CompressedOperator(Af, fdata, free, nv, t, info)

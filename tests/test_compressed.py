@@ -1,0 +1,90 @@
+"""The compressed operator against its reference, the dense matrix."""
+import numpy as np
+import pytest
+
+from fracfem import disk_uniform, load_vector, lshape, square, stiffness_matrix
+from fracfem.compressed import chebyshev_order, stiffness_operator
+from fracfem.krylov import jacobi, pcg
+from fracfem.solvers import ConvergenceError
+
+MESHES = {"disk": lambda: disk_uniform(4), "square": lambda: square(16),
+          "lshape": lambda: lshape(3)}
+
+
+def _dense(mesh, s):
+    free = mesh.interior_nodes()
+    return stiffness_matrix(mesh, s)[np.ix_(free, free)]
+
+
+@pytest.mark.parametrize("name", sorted(MESHES))
+@pytest.mark.parametrize("s", [0.1, 0.5, 0.9])
+def test_operator_matches_dense_matrix(name, s):
+    mesh = MESHES[name]()
+    A = _dense(mesh, s)
+    # small leaves so that these small meshes have admissible blocks at all
+    op = stiffness_operator(mesh, s, leaf_size=8)
+    assert op.info["far_blocks"] > 0
+    x = np.random.default_rng(1).standard_normal(A.shape[0])
+    err = np.linalg.norm(op @ x - A @ x) / np.linalg.norm(A @ x)
+    assert err <= 1e-6
+    # the near field alone is far off: the far blocks carry real weight
+    assert np.linalg.norm(op.near @ x - A @ x) / np.linalg.norm(A @ x) > 1e3 * err
+    np.testing.assert_allclose(op.diagonal(), np.diag(A), rtol=1e-12)
+
+
+def test_compression_error_falls_with_tol():
+    mesh = disk_uniform(4)
+    A = _dense(mesh, 0.5)
+    x = np.random.default_rng(2).standard_normal(A.shape[0])
+    errs = []
+    for tol in (1e-4, 1e-6, 1e-8, 1e-10):
+        op = stiffness_operator(mesh, 0.5, tol=tol, leaf_size=8)
+        errs.append(np.linalg.norm(op @ x - A @ x) / np.linalg.norm(A @ x))
+    assert all(e <= tol for e, tol in zip(errs, (1e-4, 1e-6, 1e-8, 1e-10)))
+    assert errs[0] > 30 * errs[-1]
+    assert [chebyshev_order(t) for t in (1e-4, 1e-6, 1e-8, 1e-10)] == sorted(
+        chebyshev_order(t) for t in (1e-4, 1e-6, 1e-8, 1e-10))
+
+
+def test_operator_is_symmetric():
+    op = stiffness_operator(square(16), 0.7, leaf_size=8, tol=1e-4)
+    rng = np.random.default_rng(3)
+    x, y = rng.standard_normal((2, op.shape[0]))
+    assert abs(x @ (op @ y) - y @ (op @ x)) <= 1e-12 * abs(x @ (op @ y)) + 1e-14
+    assert op.nbytes > op.near.data.nbytes
+
+
+@pytest.mark.parametrize("s", [0.25, 0.75])
+def test_energy_with_pcg_matches_dense_solve(s):
+    mesh = disk_uniform(4)
+    free = mesh.interior_nodes()
+    A = _dense(mesh, s)
+    b = load_vector(mesh, 1.0)[free]
+    op = stiffness_operator(mesh, s, leaf_size=8)
+    u, info = pcg(op, b, M=jacobi(op.diagonal()), tol=1e-12)
+    ud = np.linalg.solve(A, b)
+    assert abs(b @ u - b @ ud) <= 1e-8 * (b @ ud)
+    assert info["iterations"] < 60
+
+
+def test_bad_parameters_are_refused():
+    mesh = square(4)
+    with pytest.raises(ValueError, match=r"tol=0\.0"):
+        stiffness_operator(mesh, 0.5, tol=0.0)
+    with pytest.raises(ValueError, match=r"leaf_size=2 .*\[4, 512\]"):
+        stiffness_operator(mesh, 0.5, leaf_size=2)
+    with pytest.raises(ValueError, match=r"eta=-1"):
+        stiffness_operator(mesh, 0.5, eta=-1.0)
+    with pytest.raises(ValueError, match=r"\bs\b"):
+        stiffness_operator(mesh, 1.5)
+
+
+def test_pcg_reports_non_convergence_and_bad_input():
+    op = stiffness_operator(square(8), 0.5)
+    b = np.ones(op.shape[0])
+    with pytest.raises(ConvergenceError, match="iterations = 2"):
+        pcg(op, b, maxiter=2, tol=1e-12)
+    with pytest.raises(ValueError, match="tol"):
+        pcg(op, b, tol=2.0)
+    with pytest.raises(ValueError, match="non-finite"):
+        pcg(op, b * np.nan)
