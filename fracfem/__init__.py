@@ -7,9 +7,11 @@ from .laplace import Discretisation, discretise, solve_laplace
 from .meshes import (disk_graded, disk_graded_rings, disk_uniform, lshape,
                      refine_disk, square)
 
-from .parabolic import (IterationRecord, Slab, Stepper, TimeStep, algorithm_c,
-                        algorithm_c_steps, initial_projection, solve_parabolic,
-                        space_time_indicators, time_steps)
+from .parabolic import (Stepper, TimeStep, initial_projection, solve_parabolic,
+                        time_steps)
+from .spacetime_adaptive import (IterationRecord, Slab, algorithm_c,
+                                 algorithm_c_steps)
+from .spacetime_estimators import space_time_indicators
 
 __version__ = "0.1.0"
 
