@@ -1,8 +1,8 @@
 """Numba kernels of the nonlocal assembly; plain-array signatures only.
 
-Every kernel has a slow NumPy twin in :mod:`fracfem.reference`; the tests
-compare the two.  All kernels are compiled with ``cache=True`` because every
-Snakemake job is a fresh process.
+Every kernel has a slow NumPy twin in the test suite (``tests/reference.py``,
+outside the package); the tests compare the two.  All kernels are compiled
+with ``cache=True`` because every Snakemake job is a fresh process.
 """
 from __future__ import annotations
 

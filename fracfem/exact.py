@@ -17,6 +17,7 @@ __all__ = [
     "bubble_energy",
     "heat_solution",
     "heat_source",
+    "heat_error",
 ]
 
 
@@ -87,3 +88,29 @@ def heat_solution(x: np.ndarray, t: float, s: float) -> np.ndarray:
 def heat_source(x: np.ndarray, t: float, s: float) -> np.ndarray:
     """f(x, t) = e^{−t}((−Δ)^s w − w) in the unit disk, w = :func:`bubble`."""
     return np.exp(-t) * (bubble_laplacian(x, s) - bubble(x, s))
+
+
+def heat_error(steps, disc, s: float) -> float:
+    """‖u − u_hτ‖_{L²(0,T; a)} for u = :func:`heat_solution` = e^{−t}(1−|x|²)^{1+s}.
+
+    Exact in time: u^k is constant on I_k, so ∫_{I_k}‖e^{−t}w − u^k‖²_a dt =
+    a(w,w)∫e^{−2t} − 2a(w,u^k)∫e^{−t} + τ_k a(u^k,u^k), with a(w, φ_i) =
+    ((−Δ)ˢw, φ_i) and a(w,w) in closed form (:func:`bubble_energy`).
+    ``steps``: the :class:`fracfem.parabolic.TimeStep` records of a run on ``disc``
+    (k = 0 is skipped).
+    """
+    from .assembly import load_vector   # assembly imports this module
+
+    aw = load_vector(disc.mesh, lambda x: bubble_laplacian(x, s))[disc.free]
+    ww = bubble_energy(s)
+    err2 = 0.0
+    for step in steps:
+        if step.k == 0:
+            continue
+        a, b = step.t - step.tau, step.t
+        u = step.u[disc.free]
+        err2 += (ww * 0.5 * (np.exp(-2 * a) - np.exp(-2 * b))
+                 - 2.0 * (aw @ u) * (np.exp(-a) - np.exp(-b)) + step.tau * (u @ (disc.A @ u)))
+    if not err2 > 0:
+        raise RuntimeError(f"squared error {err2:.3e} <= 0: round-off or a wrong run")
+    return float(np.sqrt(err2))

@@ -1,6 +1,7 @@
-"""Tests of fracfem.assembly and fracfem._kernels against fracfem.reference,
-plus numerical-analysis checks of the assembled matrix (symmetry, positive
-definiteness, Galerkin energies against the exact solution of Example 1).
+"""Tests of fracfem.assembly and fracfem._kernels against the slow references of
+tests/reference.py, plus numerical-analysis checks of the assembled matrix
+(symmetry, positive definiteness, Galerkin energies against the exact solution
+of Example 1).
 
 Measured agreement (see the asserts for the tolerances):
 - numba kernels vs the pair-by-pair references: ≤ 1e-14 relative (asserted 1e-12);
@@ -18,11 +19,12 @@ import scipy.linalg as la
 from skfem import MeshTri
 
 from fracfem import _kernels, assembly, meshes
-from fracfem import reference as ref
 from fracfem.assembly import (QuadratureOptions, exterior_kernel, load_vector, mesh_arrays,
                               stiffness_matrix, touching_pairs)
 from fracfem.exact import c2s, disk_energy
 from fracfem.quadrature import triangle_rule
+
+import reference as ref
 
 KINDS = ("coincident", "edge", "vertex")
 DEFAULT = QuadratureOptions()
@@ -148,7 +150,7 @@ def physical_product_rule(P, kind, s, order=6):
 @pytest.mark.parametrize("kind", KINDS)
 def test_singular_kernel_for_polynomial_kernels_against_physical_product_rule(s, kind):
     """Checks the geometry of the relative coordinates (M, signs, node layout,
-    Jacobians) independently of fracfem.reference."""
+    Jacobians) independently of reference.py."""
     p, t = arrays("circle2")
     nodes = local_nodes(t, kind)[::7]
     got = assembly._singular_local(p, nodes, kind, getattr(DEFAULT, kind), s)

@@ -1,4 +1,5 @@
-"""DG(0) time stepping, space-time indicators and Algorithm C (fracfem.parabolic).
+"""DG(0) time stepping (fracfem.parabolic), space-time indicators
+(fracfem.spacetime_estimators) and Algorithm C (fracfem.spacetime_adaptive).
 
 Manufactured solution u = e^{−t} w, w = (1−|x|²)^{1+s}, s = 1/2, T = 1, error in
 L²(0, T; energy norm) computed exactly in time (measured when these tests were
@@ -20,7 +21,8 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
-from fracfem import assembly, exact, laplace, meshes, parabolic, vi
+from fracfem import (assembly, exact, laplace, meshes, parabolic, spacetime_adaptive,
+                     spacetime_estimators, vi)
 
 S = 0.5
 
@@ -57,7 +59,7 @@ def manufactured_error(st, n, T=1.0, s=S):
     """‖u − u_hτ‖_{L²(0,T; a)}, exact in time (u^k constant on I_k)."""
     steps = parabolic.time_steps(st, lambda x: exact.bubble(x, s), T=T, tau=T / n,
                                  f=lambda x, t: exact.heat_source(x, t, s))
-    return parabolic.heat_error(steps, st.disc, s)
+    return exact.heat_error(steps, st.disc, s)
 
 
 def test_bubble_energy_closed_form():
@@ -350,7 +352,7 @@ def test_indicators_of_the_manufactured_solution():
     res = []
     for n in (4, 8, 16):
         steps = parabolic.solve_parabolic(st, u0, T=1.0, tau=1 / n, f=f)
-        ind = parabolic.space_time_indicators(st, steps, u0, f=f)
+        ind = spacetime_estimators.space_time_indicators(st, steps, u0, f=f)
         res.append(ind)
         err = manufactured_error(st, n)
         assert 1.0 < ind["eta"] / err < 6.0
@@ -372,7 +374,7 @@ def test_indicators_of_the_manufactured_solution():
 
 def test_initial_term():
     st = heat_stepper(3)
-    ini = parabolic.initial_indicators(st, 1.0)
+    ini = spacetime_estimators.initial_indicators(st, 1.0)
     ph1 = parabolic.initial_projection(st, 1.0)[st.free]
     area = assembly.load_vector(st.mesh, 1.0).sum()
     # ‖1 − P_h 1‖² = |Ω_h| − ‖P_h 1‖²_M since (1, P_h 1) = ‖P_h 1‖²_M
@@ -383,18 +385,18 @@ def test_initial_term():
     at_boundary = boundary[st.mesh.t].any(axis=0)
     assert ini["elements"][at_boundary].sum() > 0.5 * ini["l2sq"]
     # patch localisation: each node term is its patch sum
-    split = parabolic.initial_indicators(st, 1.0, localisation="split")
+    split = spacetime_estimators.initial_indicators(st, 1.0, localisation="split")
     assert split["eta2_fine"].sum() == pytest.approx(split["total"], rel=1e-12)
     assert ini["total"] == pytest.approx(split["total"], rel=1e-12)
     # an element of V_h is its own projection: no initial term
     v = parabolic.initial_projection(st, lambda x: np.cos(x[0]))
-    assert parabolic.initial_indicators(st, v)["total"] < 1e-25
+    assert spacetime_estimators.initial_indicators(st, v)["total"] < 1e-25
 
 
 def test_time_term_formula():
     st = heat_stepper(2)
     steps = parabolic.solve_parabolic(st, 1.0, T=0.2, tau=0.1)
-    out = parabolic.step_indicators(st, steps[0].u, steps[1], localisation="split")
+    out = spacetime_estimators.step_indicators(st, steps[0].u, steps[1], localisation="split")
     du = steps[1].u - steps[0].u
     pts, wts, bary = __import__("fracfem.pointwise", fromlist=["x"]).quadrature_points(
         st.mesh, 4)
@@ -414,7 +416,7 @@ def test_space_part_for_huge_tau_is_the_elliptic_indicator():
 
     st = mixed_stepper("obstacle", 2)
     steps = parabolic.solve_parabolic(st, 0.0, times=[0.0, 1e8], f=1.0)
-    out = parabolic.step_indicators(st, steps[0].u, steps[1], f=1.0)
+    out = spacetime_estimators.step_indicators(st, steps[0].u, steps[1], f=1.0)
     est = estimators.estimate(st.problem, steps[1].u, steps[1].lam, f=1.0)
     np.testing.assert_allclose(out["space"] / 1e8, est["parts"]["residual_fine"],
                                rtol=1e-6, atol=1e-12 * est["parts"]["residual_fine"].max())
@@ -426,7 +428,7 @@ def test_space_part_for_huge_tau_is_the_elliptic_indicator():
 def test_friction_indicators_and_contact_term():
     st = mixed_stepper("friction", 2, s=0.6)
     steps = parabolic.solve_parabolic(st, ex5_u0, T=0.3, tau=0.1)
-    ind = parabolic.space_time_indicators(st, steps, ex5_u0)
+    ind = spacetime_estimators.space_time_indicators(st, steps, ex5_u0)
     assert np.all(ind["contact_fine"] >= 0) and np.all(ind["time_fine"] >= 0)
     assert np.all(ind["space_fine"] >= 0) and ind["eta"] > 0
     assert np.all(ind["contact"] >= -1e-15)
@@ -436,11 +438,11 @@ def test_indicator_argument_checks():
     st = heat_stepper(2)
     steps = parabolic.solve_parabolic(st, 1.0, T=0.2, tau=0.1)
     with pytest.raises(ValueError, match="k >= 1"):
-        parabolic.step_indicators(st, steps[0].u, steps[0])
+        spacetime_estimators.step_indicators(st, steps[0].u, steps[0])
     with pytest.raises(ValueError, match="localisation"):
-        parabolic.step_indicators(st, steps[0].u, steps[1], localisation="nodes")
+        spacetime_estimators.step_indicators(st, steps[0].u, steps[1], localisation="nodes")
     with pytest.raises(ValueError, match="k = 0"):
-        parabolic.space_time_indicators(st, steps[1:], 1.0)
+        spacetime_estimators.space_time_indicators(st, steps[1:], 1.0)
     from fracfem import estimators, mixed
     with pytest.raises(ValueError, match="rh_extra"):
         estimators.residual_indicators(st.mesh, steps[1].u, S, 0.0, rh_extra=np.ones(3))
@@ -450,25 +452,7 @@ def test_indicator_argument_checks():
                                               edges=edges, F=0.1))
     steps = parabolic.solve_parabolic(thin, 1.0, T=0.1, tau=0.1)
     with pytest.raises(ValueError, match="thin_friction"):
-        parabolic.step_indicators(thin, steps[0].u, steps[1])
-
-
-# ------------------------------------------------------------ transfer
-
-
-def test_transfer_is_exact_for_p1_on_a_refinement_and_zero_outside():
-    coarse = meshes.disk_uniform(2)
-    fine = meshes.refine_disk(coarse, np.arange(0, coarse.t.shape[1], 3))
-    lin = lambda x: 0.3 + x[0] - 2 * x[1]  # noqa: E731
-    vals = parabolic.interpolate(coarse, lin(coarse.p), fine.p[:, :coarse.p.shape[1]])
-    np.testing.assert_allclose(vals, lin(coarse.p), atol=1e-13)
-    inside = np.linalg.norm(fine.p, axis=0) < 0.9
-    vals = parabolic.interpolate(coarse, lin(coarse.p), fine.p[:, inside])
-    np.testing.assert_allclose(vals, lin(fine.p[:, inside]), atol=1e-13)
-    el, _ = parabolic.locate_points(coarse, np.array([[2.0, 0.0], [0.0, 0.999]]).T)
-    assert el[0] == -1                                     # outside the disk
-    u = parabolic.transfer(coarse, lin(coarse.p), fine)
-    assert np.all(u[fine.boundary_nodes()] == 0.0)
+        spacetime_estimators.step_indicators(thin, steps[0].u, steps[1])
 
 
 # ------------------------------------------------------------ Algorithm C
@@ -487,7 +471,7 @@ def _ex4_run():
     """Example 4 (ũ₀ = 2) from disk_uniform(1), θ = 1/2, 3 passes (measured:
     η = 2.380, 1.944, 1.532 with 75, 678, 2745 space-time DOFs)."""
     calls = []
-    recs = parabolic.algorithm_c(_ex4_problem(calls), meshes.disk_uniform(1), 2.0, T=1.0,
+    recs = spacetime_adaptive.algorithm_c(_ex4_problem(calls), meshes.disk_uniform(1), 2.0, T=1.0,
                                  theta=0.5, iterations=3,
                                  output_times=(0.0, 0.4, 0.8, 1.0))
     return recs, calls
@@ -571,15 +555,15 @@ def test_algorithm_c_bad_arguments(kwargs, match):
     args = dict(T=1.0, theta=0.5, iterations=2)
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
-        parabolic.algorithm_c(_ex4_problem(), meshes.disk_uniform(1), 2.0, **args)
+        spacetime_adaptive.algorithm_c(_ex4_problem(), meshes.disk_uniform(1), 2.0, **args)
     with pytest.raises(ValueError, match="u0"):
-        parabolic.algorithm_c(_ex4_problem(), meshes.disk_uniform(1), np.ones(3),
+        spacetime_adaptive.algorithm_c(_ex4_problem(), meshes.disk_uniform(1), np.ones(3),
                               T=1.0, theta=0.5, iterations=1)
 
 
 def test_algorithm_c_friction_and_doerfler():
     make = lambda c: vi.mixed_problem("friction", c, 0.6, 0.0, F=0.1)  # noqa: E731
-    recs = parabolic.algorithm_c(make, meshes.disk_uniform(1), ex5_u0, T=1.0, theta=0.5,
+    recs = spacetime_adaptive.algorithm_c(make, meshes.disk_uniform(1), ex5_u0, T=1.0, theta=0.5,
                                  iterations=2, marking="doerfler", output_times=(0.2,))
     m = recs[0].marked
     eta2 = np.concatenate(recs[0].prism_eta2)
@@ -589,5 +573,5 @@ def test_algorithm_c_friction_and_doerfler():
     assert recs[0].first_contact_time is None
     assert np.all(recs[1].steps["n_active"] >= 0)
     with pytest.raises(TypeError, match="MixedProblem"):
-        parabolic.algorithm_c(lambda c: laplace.discretise(meshes.refine_disk(c), S),
+        spacetime_adaptive.algorithm_c(lambda c: laplace.discretise(meshes.refine_disk(c), S),
                               meshes.disk_uniform(1), 1.0, T=1.0, theta=0.5, iterations=1)

@@ -2,8 +2,8 @@
 
 The fast kernel (Riesz potential of −Δ(u_h 1_Ω), one line integral per edge)
 is checked against
-- the independent element-wise polar reference (the brief's formula with
-  κ, adaptive quad in the angle, exact in r) on a tiny mesh,
+- the independent element-wise polar reference of pointwise_reference.py (the
+  brief's formula with κ, adaptive quad in the angle, exact in r) on a tiny mesh,
 - c κ(x) from fracfem.assembly.exterior_kernel for u_h ≡ 1,
 - the exact values of (−Δ)^s for the bubble (1−|x|²)^{1+s} and for the
   Example 1 solution C_s(1−|x|²)^s (discretisation error → 0 at the
@@ -23,10 +23,10 @@ from fracfem.assembly import _boundary_edges, exterior_kernel, mesh_arrays
 from fracfem.exact import bubble_laplacian, c2s, disk_solution
 from fracfem.meshes import disk_uniform
 from fracfem.pointwise import (PointwiseOptions, fractional_laplacian_at,
-                               fractional_laplacian_qp,
-                               fractional_laplacian_reference,
-                               normal_derivative_jumps)
+                               fractional_laplacian_qp, normal_derivative_jumps)
 from fracfem.quadrature import triangle_rule
+
+from pointwise_reference import fractional_laplacian_reference
 
 
 @lru_cache(maxsize=None)

@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 from fracfem import disk_graded, disk_uniform, refine_disk
-from fracfem.transfer import interpolate, interpolation_matrix, locate
+from fracfem.transfer import (interpolate, interpolate_at, interpolation_matrix, locate,
+                              transfer)
 
 
 def test_linear_functions_are_reproduced_inside():
@@ -77,3 +78,18 @@ def test_space_time_distance_refuses_gaps_and_mixed_reference_meshes():
     with pytest.raises(ValueError, match="one mesh"):
         space_time_distance([(0, 1, mesh, w)], [(0, 0.5, mesh, w), (0.5, 1, other, v)],
                             disc.A, disc.free)
+
+
+def test_transfer_is_exact_for_p1_on_a_refinement_and_zero_outside():
+    coarse = disk_uniform(2)
+    fine = refine_disk(coarse, np.arange(0, coarse.t.shape[1], 3))
+    lin = lambda x: 0.3 + x[0] - 2 * x[1]  # noqa: E731
+    vals = interpolate_at(coarse, lin(coarse.p), fine.p[:, :coarse.p.shape[1]])
+    np.testing.assert_allclose(vals, lin(coarse.p), atol=1e-13)
+    inside = np.linalg.norm(fine.p, axis=0) < 0.9
+    vals = interpolate_at(coarse, lin(coarse.p), fine.p[:, inside])
+    np.testing.assert_allclose(vals, lin(fine.p[:, inside]), atol=1e-13)
+    el, _ = locate(coarse, np.array([[2.0, 0.0], [0.0, 0.999]]).T)
+    assert el[0] == -1                                     # outside the disk
+    u = transfer(coarse, lin(coarse.p), fine)
+    assert np.all(u[fine.boundary_nodes()] == 0.0)

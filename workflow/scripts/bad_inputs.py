@@ -60,7 +60,7 @@ CASES = [
      lambda: _steps(times=[0.0, 0.5, 0.4])),
     ("u0", "initial value u0 = NaN", lambda: list(parabolic.time_steps(
         ff.discretise(ff.disk_uniform(1), 0.5, 0.0), float("nan"), T=1.0, tau=0.5))),
-    ("θ", "θ = 1 in Algorithm C", lambda: parabolic.algorithm_c(
+    ("θ", "θ = 1 in Algorithm C", lambda: ff.algorithm_c(
         lambda c: None, ff.disk_uniform(1), 1.0, T=1.0, theta=1.0, iterations=1)),
     ("s", "s = 0", lambda: ff.stiffness_matrix(ff.disk_uniform(1), 0.0)),
     ("s", "s = 1.2", lambda: ff.stiffness_matrix(ff.disk_uniform(1), 1.2)),

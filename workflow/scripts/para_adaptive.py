@@ -9,7 +9,6 @@ from para_errors import pieces
 from para_solve import para_problem
 
 import fracfem as ff
-from fracfem import parabolic
 from fracfem.io import peak_memory_mb, save_arrays, with_provenance, write_table
 from fracfem.transfer import space_time_distance
 
@@ -61,7 +60,7 @@ def main(problem, cfg, quadrature, ref_npz, table_path, npz_path, threads):
                                f"time_it{rec.iteration}_{j}": t_out})
         return rec.dofs >= a["max_spacetime_dofs"]
 
-    recs = parabolic.algorithm_c(
+    recs = ff.algorithm_c(
         lambda c: para_problem(problem, c, cfg, quad)[0], ff.disk_uniform(a["start_level"]),
         u0, T=pc["T"], theta=a["theta"], iterations=a["max_iterations"], c_tau=a["c_tau"],
         output_times=pc["output_times"], callback=record, keep_steps=True,

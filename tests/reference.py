@@ -32,9 +32,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.polynomial.legendre import leggauss
 
-from .exact import c2s, check_s
-from .quadrature import (coincident_rule, edge_rule, radial_factor,
-                         triangle_rule, vertex_rule)
+from fracfem.assembly import QuadratureOptions
+from fracfem.exact import c2s, check_s
+from fracfem.quadrature import (coincident_rule, edge_rule, radial_factor,
+                                triangle_rule, vertex_rule)
 
 __all__ = [
     "classify_pairs",
@@ -466,8 +467,6 @@ def stiffness_matrix_reference(mesh, s, quadrature=None, *, parts=False, **kappa
     With parts=True returns the dict {'singular', 'far', 'kappa'} of the three
     contributions (each already multiplied by c_{2,s}, no NaN).
     """
-    from .assembly import QuadratureOptions
-
     s = check_s(s)
     quad = quadrature or QuadratureOptions()
     p = np.asarray(mesh.p, dtype=float).T
