@@ -210,7 +210,8 @@ class CompressedOperator(spla.LinearOperator):
                            if isinstance(v, np.ndarray)))
 
     def diagonal(self) -> np.ndarray:
-        """Exact diagonal (far blocks couple no node with itself)."""
+        """The diagonal: far blocks couple no node with itself, so only the
+        far-field diagonal terms carry the compression error."""
         return self.near.diagonal()
 
     def far_matvec(self, x: np.ndarray) -> np.ndarray:
