@@ -21,6 +21,7 @@ from scipy.special import gamma, roots_jacobi
 
 from . import _kernels
 from .exact import c2s, check_s
+from .meshes import check_mesh, validated
 from .quadrature import (coincident_rule, edge_rule, gauss01, radial_factor,
                          triangle_rule, vertex_rule)
 
@@ -95,26 +96,17 @@ class QuadratureOptions:
         )
 
 
-def mesh_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
-    """(p (Nv, 2) float64, t (Nt, 3) int64) from a scikit-fem mesh, checked."""
+def mesh_arrays(mesh, name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
+    """(p (Nv, 2) float64, t (Nt, 3) int64) of a scikit-fem mesh, checked once.
+
+    The check is :func:`fracfem.meshes.check_mesh` (duplicate or unused nodes,
+    zero-area triangles, non-finite coordinates, shapes); it is skipped inside a
+    :func:`fracfem.meshes.validated` block for this mesh.  ``name`` names the mesh
+    in error messages.
+    """
+    check_mesh(mesh, name)
     p = np.ascontiguousarray(np.asarray(mesh.p, dtype=np.float64).T)
     t = np.ascontiguousarray(np.asarray(mesh.t, dtype=np.int64).T)
-    if p.ndim != 2 or p.shape[1] != 2:
-        raise ValueError(f"mesh.p must have shape (2, Nv), got {mesh.p.shape}")
-    if t.ndim != 2 or t.shape[1] != 3:
-        raise ValueError(f"mesh.t must have shape (3, Nt), got {mesh.t.shape}")
-    if not np.all(np.isfinite(p)):
-        raise ValueError("mesh.p contains non-finite coordinates (NaN or inf)")
-    if t.min() < 0 or t.max() >= len(p):
-        raise ValueError("mesh.t refers to nodes outside mesh.p")
-    e1, e2 = p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]
-    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-    diam2 = np.max([np.sum(e1**2, 1), np.sum(e2**2, 1),
-                    np.sum((e2 - e1)**2, 1)], axis=0)
-    bad = np.flatnonzero(area <= 1e-14 * diam2)
-    if bad.size:
-        raise ValueError(f"mesh.t has degenerate (zero-area) triangles, e.g. "
-                         f"triangle {bad[0]} with area {area[bad[0]]:.3e}")
     return p, t
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from .assembly import QuadratureOptions, load_vector, stiffness_matrix
+from .meshes import validates
 
 __all__ = ["Discretisation", "discretise", "solve_laplace"]
 
@@ -30,6 +31,7 @@ class Discretisation:
         return u
 
 
+@validates("mesh")
 def discretise(mesh, s: float, f=1.0, *, quadrature: QuadratureOptions | None = None,
                load_order: int = 6) -> Discretisation:
     """Assemble the free-node matrix and load vector of (−Δ)^s u = f."""
