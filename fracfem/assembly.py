@@ -19,8 +19,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.special import gamma, roots_jacobi
 
-from . import _kernels
+from . import _kernels, memory
 from .exact import c2s, check_s
+from .meshes import check_mesh
 from .quadrature import (coincident_rule, edge_rule, gauss01, radial_factor,
                          triangle_rule, vertex_rule)
 
@@ -34,6 +35,7 @@ __all__ = [
     "touching_pairs",
     "exterior_kernel",
     "mesh_arrays",
+    "dense_bytes",
 ]
 
 
@@ -95,26 +97,17 @@ class QuadratureOptions:
         )
 
 
-def mesh_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
-    """(p (Nv, 2) float64, t (Nt, 3) int64) from a scikit-fem mesh, checked."""
+def mesh_arrays(mesh, name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
+    """(p (Nv, 2) float64, t (Nt, 3) int64) of a scikit-fem mesh, checked once.
+
+    The check is :func:`fracfem.meshes.check_mesh` (duplicate or unused nodes,
+    zero-area triangles, non-finite coordinates, shapes); it is skipped inside a
+    :func:`fracfem.meshes.validated` block for this mesh.  ``name`` names the mesh
+    in error messages.
+    """
+    check_mesh(mesh, name)
     p = np.ascontiguousarray(np.asarray(mesh.p, dtype=np.float64).T)
     t = np.ascontiguousarray(np.asarray(mesh.t, dtype=np.int64).T)
-    if p.ndim != 2 or p.shape[1] != 2:
-        raise ValueError(f"mesh.p must have shape (2, Nv), got {mesh.p.shape}")
-    if t.ndim != 2 or t.shape[1] != 3:
-        raise ValueError(f"mesh.t must have shape (3, Nt), got {mesh.t.shape}")
-    if not np.all(np.isfinite(p)):
-        raise ValueError("mesh.p contains non-finite coordinates (NaN or inf)")
-    if t.min() < 0 or t.max() >= len(p):
-        raise ValueError("mesh.t refers to nodes outside mesh.p")
-    e1, e2 = p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]
-    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-    diam2 = np.max([np.sum(e1**2, 1), np.sum(e2**2, 1),
-                    np.sum((e2 - e1)**2, 1)], axis=0)
-    bad = np.flatnonzero(area <= 1e-14 * diam2)
-    if bad.size:
-        raise ValueError(f"mesh.t has degenerate (zero-area) triangles, e.g. "
-                         f"triangle {bad[0]} with area {area[bad[0]]:.3e}")
     return p, t
 
 
@@ -322,8 +315,39 @@ def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None):
     return out
 
 
+def dense_bytes(nv: int, nt: int, nchunks: int, quad: QuadratureOptions | None = None) -> float:
+    """Peak bytes of :func:`stiffness_matrix`: the N × N matrix, one N × N far-field
+    copy per chunk (:func:`fracfem._kernels.far_pairs`) and O(Nt) work arrays."""
+    quad = quad or QuadratureOptions()
+    nq = sum(len(triangle_rule(max(o, 1))[1]) for o in quad.far_orders)
+    # per element: far-field sums D per chunk, rule points and weights (built twice),
+    # and a generous 4 KiB for the singular local blocks and the κ rules
+    per_element = 8.0 * (nchunks * (nq + 4) + 6 * nq) + 4096.0
+    return 8.0 * nv * nv * (1 + nchunks) + per_element * nt
+
+
+def _check_dense_memory(nv, nt, nchunks, quad, limit):
+    """Refuse a stiffness matrix that does not fit, before allocating it."""
+    advice = "use a coarser mesh"
+    avail, _ = memory.memory_limit(limit)
+    if avail is not None:
+        linear = dense_bytes(nv, nt, nchunks, quad) - 8.0 * nv * nv * (1 + nchunks)
+        fit = int(np.sqrt(max(avail - linear, 0.0) / (8.0 * (1 + nchunks))))
+        if fit >= 3:
+            advice += f" (about N = {fit} nodes fit with nchunks={nchunks})"
+        serial = dense_bytes(nv, nt, 1, quad)
+        if nchunks > 1 and serial <= avail:
+            advice += (f", or nchunks=1 (one far-field copy, serial far field: "
+                       f"{serial / memory.GIB:.3g} GiB)")
+    memory.check_dense(dense_bytes(nv, nt, nchunks, quad),
+                       what=f"the dense stiffness matrix for N = {nv} nodes "
+                            f"({nt} triangles, nchunks={nchunks})",
+                       advice=advice, limit=limit)
+
+
 def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = None,
-                     timings: dict | None = None, nchunks: int | None = None) -> np.ndarray:
+                     timings: dict | None = None, nchunks: int | None = None,
+                     memory_limit=None) -> np.ndarray:
     """Dense matrix a(φ_i, φ_j) over all mesh nodes.
 
     Rows and columns of boundary nodes are NaN: homogeneous Dirichlet data
@@ -337,12 +361,25 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
     s : fractional order in (0, 1)
     quadrature : orders, default :class:`QuadratureOptions`
     timings : if given, filled with seconds per phase
-    nchunks : parallel chunks of the far-field loop (default: numba threads)
+    nchunks : parallel chunks of the far-field loop (default: numba threads); each
+        holds a private N × N copy
+    memory_limit : bytes the dense path may use (number, or a string like '2G');
+        default ``$FRACFEM_MEMORY_LIMIT``, else the memory available now.  A problem
+        needing more (:func:`dense_bytes`) raises
+        :class:`fracfem.memory.DenseMemoryError` (a MemoryError and a ValueError)
+        before anything large is allocated.
     """
     s = check_s(s)
     quad = quadrature or QuadratureOptions()
     p, t = mesh_arrays(mesh)
     nv = len(p)
+    if nchunks is None:
+        import numba
+        nchunks = numba.get_num_threads()
+    if not isinstance(nchunks, (int, np.integer)) or isinstance(nchunks, bool) or nchunks < 1:
+        raise ValueError(f"nchunks={nchunks!r} must be an integer >= 1")
+    nchunks = int(nchunks)
+    _check_dense_memory(nv, len(t), nchunks, quad, memory_limit)
     c = c2s(s)
     tim = {} if timings is None else timings
     t0 = time.perf_counter()
@@ -365,15 +402,10 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
     area2, cent, diam = geometry
     qx, qw, lam, offs = _far_rules(p, t, orders, area2)
     area, mom, grad = _element_moments(p, t)
-    if nchunks is None:
-        import numba
-        nchunks = numba.get_num_threads()
-    if int(nchunks) < 1:
-        raise ValueError(f"nchunks={nchunks!r} must be >= 1")
     X, D = _kernels.far_pairs(t, cent, diam, area, mom, grad,
                               qx, qw, lam, offs,
                               np.asarray(quad.far_thresholds, dtype=np.float64),
-                              orders[0] == 0, s, nv, int(nchunks))
+                              orders[0] == 0, s, nv, nchunks)
     X *= c
     _kernels.sum_chunks_symmetric(X, A)
     del X

@@ -82,6 +82,7 @@ import numpy as np
 
 from .assembly import mesh_arrays
 from .exact import check_s
+from .meshes import validates
 from .pointwise import PointwiseOptions, fractional_laplacian_qp
 from .quadrature import triangle_rule
 
@@ -208,6 +209,7 @@ def _check_p(p):
 # ------------------------------------------------------------------ residual term
 
 
+@validates("fine")
 def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
                         p: float = 2.0, options: PointwiseOptions | None = None,
                         rh_extra=None):
@@ -274,6 +276,7 @@ def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
                 seconds_pointwise=t_pw)
 
 
+@validates("fine")
 def residual_indicators(fine, u, s, f, lam_fine=None, contact_nodes=None, order: int = 4,
                         *, p: float = 2.0, localisation: str = "patch",
                         boundary: bool = False, options: PointwiseOptions | None = None,
@@ -343,6 +346,7 @@ def residual_indicators(fine, u, s, f, lam_fine=None, contact_nodes=None, order:
 # ------------------------------------------------------------------ Lemma 5.21
 
 
+@validates("prob.fine", "prob.coarse")
 def contact_terms(prob, u, lam) -> dict:
     """The computable bounds of b(λ_H − λ, u − u_h) of Lemma 5.21.
 
@@ -424,6 +428,7 @@ def _problem_f(obj, f):
                      "the problem does not store it: pass f=")
 
 
+@validates("prob.fine", "prob.coarse")
 def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
              p: float = 2.0, localisation: str = "patch", boundary: bool = False,
              options: PointwiseOptions | None = None, rh_extra=None) -> dict:
@@ -499,6 +504,7 @@ def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
                              residual=t1 - t0, contact=t2 - t1, total=t2 - t0))
 
 
+@validates("disc.mesh")
 def estimate_laplace(disc, u, f, order: int = 4, *, p: float = 2.0,
                      localisation: str = "patch", boundary: bool = False,
                      options: PointwiseOptions | None = None) -> dict:

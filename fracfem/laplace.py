@@ -8,6 +8,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from .assembly import QuadratureOptions, load_vector, stiffness_matrix
+from .memory import check_dense
+from .meshes import validates
 
 __all__ = ["Discretisation", "discretise", "solve_laplace"]
 
@@ -30,9 +32,15 @@ class Discretisation:
         return u
 
 
+@validates("mesh")
 def discretise(mesh, s: float, f=1.0, *, quadrature: QuadratureOptions | None = None,
                load_order: int = 6) -> Discretisation:
-    """Assemble the free-node matrix and load vector of (−Δ)^s u = f."""
+    """Assemble the free-node matrix and load vector of (−Δ)^s u = f.
+
+    The mesh is checked once (:func:`fracfem.meshes.validate_mesh`); a problem whose
+    dense matrix does not fit into memory is refused before assembly
+    (:func:`fracfem.assembly.stiffness_matrix`, limit ``$FRACFEM_MEMORY_LIMIT``).
+    """
     tim: dict = {}
     A = stiffness_matrix(mesh, s, quadrature=quadrature, timings=tim)
     free = mesh.interior_nodes()
@@ -45,6 +53,9 @@ def discretise(mesh, s: float, f=1.0, *, quadrature: QuadratureOptions | None = 
 def solve_laplace(disc: Discretisation) -> np.ndarray:
     """u_h on the free nodes by a Cholesky factorisation; timing in disc.timings."""
     t0 = time.perf_counter()
+    n = len(disc.A)
+    check_dense(8.0 * n * n, what=f"the Cholesky factor of the {n} × {n} free-node matrix",
+                advice="use a coarser mesh")
     try:
         factor = sla.cho_factor(disc.A, lower=True, check_finite=True)
     except np.linalg.LinAlgError as err:

@@ -8,12 +8,15 @@ have all triangles oriented counter-clockwise.
 
 from __future__ import annotations
 
+import functools
+import inspect
 import logging
 import numbers
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import replace
 
 import numpy as np
-from scipy.spatial import cKDTree
 from skfem import MeshTri
 
 logger = logging.getLogger(__name__)
@@ -26,6 +29,9 @@ __all__ = [
     "lshape",
     "refine_disk",
     "validate_mesh",
+    "check_mesh",
+    "validated",
+    "validates",
     "mesh_from_arrays",
     "interior_nodes",
     "mesh_size",
@@ -70,8 +76,30 @@ def _first(ix, k=5):
     return f"{ix[:k].tolist()}{more}"
 
 
-def validate_mesh(p, t) -> None:
+def _coincident_pairs(p, tol):
+    """Pairs (i, j), i < j, of nodes closer than ``tol`` in both coordinates, by sorting.
+
+    Nodes are sorted by (x-cell of width 2 tol, y); a coincident pair then has
+    neighbours in that order, in the same cell, whose y differ by at most tol.
+    A second pass with cells shifted by half a width catches pairs split by a
+    cell boundary.  Every reported pair is within 2 tol in x and tol in y.
+    """
+    x, y = p
+    found = []
+    for shift in (0.0, 0.5):
+        cell = np.floor(x / (2.0 * tol) + shift)
+        order = np.lexsort((y, cell))
+        c, ys = cell[order], y[order]
+        k = np.flatnonzero((c[1:] == c[:-1]) & (ys[1:] - ys[:-1] <= tol))
+        found.append(np.sort(np.column_stack([order[k], order[k + 1]]), axis=1))
+    return np.unique(np.vstack(found), axis=0)
+
+
+def validate_mesh(p, t, *, name: str = "") -> None:
     """Check that ``(p, t)`` is a valid triangle mesh, else raise ValueError.
+
+    Cost O(N log N) (one gather of the vertices, two sorts of the nodes): a few
+    milliseconds for 10^4 nodes.
 
     Parameters
     ----------
@@ -80,42 +108,117 @@ def validate_mesh(p, t) -> None:
     t : ndarray, shape (3, Nt)
         Integer triangle-to-node table.  Every node must be used, no triangle may
         repeat a vertex or have (near-)zero area (``|area| <= 1e-14 * diam**2``)
-        and no two nodes may coincide (up to ``1e-14`` times the coordinate scale).
+        and no two nodes may coincide: nodes closer than ``1e-14`` times the
+        coordinate scale in both coordinates are duplicates (pairs up to twice
+        that apart in x may also be reported).
+    name : str
+        Prefix of ``p`` and ``t`` in the messages, e.g. ``"mesh"`` gives ``mesh.p``.
     """
+    P, T = (f"{name}.p", f"{name}.t") if name else ("p", "t")
     p, t = np.asarray(p), np.asarray(t)
     if p.ndim != 2 or p.shape[0] != 2 or p.shape[1] < 3 or not np.issubdtype(p.dtype, np.floating):
-        raise ValueError(f"p must be a float array of shape (2, Nv) with Nv >= 3, "
+        raise ValueError(f"{P} must be a float array of shape (2, Nv) with Nv >= 3, "
                          f"got dtype {p.dtype} and shape {p.shape}")
-    bad = np.flatnonzero(~np.isfinite(p).all(axis=0))
-    if bad.size:
-        raise ValueError(f"p has NaN/inf coordinates at nodes {_first(bad)}")
+    finite = np.isfinite(p)
+    if not finite.all():
+        bad = np.flatnonzero(~finite.all(axis=0))
+        raise ValueError(f"{P} has NaN/inf coordinates at nodes {_first(bad)}")
     if (t.ndim != 2 or t.shape[0] != 3 or t.shape[1] < 1
             or not np.issubdtype(t.dtype, np.integer)):
-        raise ValueError(f"t must be an integer array of shape (3, Nt) with Nt >= 1, "
+        raise ValueError(f"{T} must be an integer array of shape (3, Nt) with Nt >= 1, "
                          f"got dtype {t.dtype} and shape {t.shape}")
     nv = p.shape[1]
-    bad = np.flatnonzero(((t < 0) | (t >= nv)).any(axis=0))
-    if bad.size:
-        raise ValueError(f"t has node indices outside [0, {nv - 1}] in triangles "
-                         f"{_first(bad)}, e.g. t[:, {bad[0]}] = {t[:, bad[0]].tolist()}")
+    if t.min() < 0 or t.max() >= nv:
+        bad = np.flatnonzero(((t < 0) | (t >= nv)).any(axis=0))
+        raise ValueError(f"{T} has node indices outside [0, {nv - 1}] in triangles "
+                         f"{_first(bad)}, e.g. {T}[:, {bad[0]}] = {t[:, bad[0]].tolist()}")
     bad = np.flatnonzero((t[0] == t[1]) | (t[1] == t[2]) | (t[0] == t[2]))
     if bad.size:
-        raise ValueError(f"t has triangles with repeated vertices: {_first(bad)}, "
-                         f"e.g. t[:, {bad[0]}] = {t[:, bad[0]].tolist()}")
+        raise ValueError(f"{T} has triangles with repeated vertices: {_first(bad)}, "
+                         f"e.g. {T}[:, {bad[0]}] = {t[:, bad[0]].tolist()}")
     scale = max(np.abs(p).max(), np.ptp(p, axis=1).max())
-    pairs = cKDTree(p.T).query_pairs(r=1e-14 * scale, output_type="ndarray")
+    pairs = _coincident_pairs(p, max(1e-14 * scale, np.finfo(float).tiny))
     if len(pairs):
-        raise ValueError(f"p has duplicate nodes: {pairs[0].tolist()} at "
-                         f"{p[:, pairs[0][0]].tolist()} ({len(pairs)} duplicate pair(s))")
-    bad = np.setdiff1d(np.arange(nv), t)
+        i, j = pairs[0]
+        more = f" and {len(pairs) - 3} more" if len(pairs) > 3 else ""
+        raise ValueError(f"{P} has duplicate nodes: [{i}, {j}] at {p[:, i].tolist()} "
+                         f"({len(pairs)} coincident pair(s): {pairs[:3].tolist()}{more}); "
+                         f"merge each pair into one node")
+    used = np.bincount(t.ravel(), minlength=nv) > 0
+    if not used.all():
+        raise ValueError(f"{P} has unused nodes not referenced by {T}: "
+                         f"{_first(np.flatnonzero(~used))}")
+    v = p[:, t]                                  # (2, 3, Nt), gathered once
+    d1, d2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
+    area = 0.5 * (d1[0] * d2[1] - d1[1] * d2[0])
+    diam2 = np.maximum(np.maximum((d1 ** 2).sum(0), (d2 ** 2).sum(0)), ((d2 - d1) ** 2).sum(0))
+    bad = np.flatnonzero(np.abs(area) <= 1e-14 * diam2)
     if bad.size:
-        raise ValueError(f"p has unused nodes not referenced by t: {_first(bad)}")
-    area = _signed_areas(p, t)
-    diam = _edge_lengths(p, t).max(axis=0)
-    bad = np.flatnonzero(np.abs(area) <= 1e-14 * diam**2)
-    if bad.size:
-        raise ValueError(f"t has (near-)zero-area triangles {_first(bad)}, "
+        raise ValueError(f"{T} has (near-)zero-area triangles {_first(bad)}, "
                          f"e.g. triangle {bad[0]} has area {area[bad[0]]:.3e}")
+
+
+# Meshes validated by an enclosing public call: checked once per call, not again
+# by every helper it calls (an adaptive step reads mesh arrays dozens of times).
+_VALIDATED: ContextVar[tuple] = ContextVar("fracfem_validated_meshes", default=())
+
+
+def check_mesh(mesh, name: str = "mesh") -> None:
+    """Validate a scikit-fem triangle mesh with :func:`validate_mesh`, else raise ValueError.
+
+    Skipped for a mesh already checked by an enclosing :func:`validated` block.
+    ``name`` is the parameter name used in the messages.
+    """
+    if any(m is mesh for m in _VALIDATED.get()):
+        return
+    if not (hasattr(mesh, "p") and hasattr(mesh, "t")):
+        raise ValueError(f"{name} must be a scikit-fem triangle mesh (skfem.MeshTri, with "
+                         f"p of shape (2, Nv) and t of shape (3, Nt)), got "
+                         f"{type(mesh).__name__}")
+    validate_mesh(mesh.p, mesh.t, name=name)
+
+
+@contextmanager
+def validated(**meshes):
+    """Check each mesh once (keyword = name in messages); inside the block they are trusted.
+
+    Public entry points wrap their work in ``with validated(mesh=mesh):`` so that the
+    helpers they call (:func:`fracfem.assembly.mesh_arrays` and every public function
+    built on it) do not repeat the check.  None values are ignored.
+    """
+    given = [(k, m) for k, m in meshes.items() if m is not None]
+    for name, mesh in given:
+        check_mesh(mesh, name)
+    token = _VALIDATED.set(_VALIDATED.get() + tuple(m for _, m in given))
+    try:
+        yield
+    finally:
+        _VALIDATED.reset(token)
+
+
+def validates(*paths: str):
+    """Decorator: check the named mesh arguments once for the whole call (:func:`validated`).
+
+    ``paths`` are parameter names or attribute paths such as ``"prob.fine"``; missing
+    or None values are skipped (the function's own checks then apply).
+    """
+    def decorate(func):
+        sig = inspect.signature(func)
+
+        @functools.wraps(func)
+        def wrapper(*args, **kwargs):
+            arguments = sig.bind(*args, **kwargs).arguments
+            meshes = {}
+            for path in paths:
+                head, *attrs = path.split(".")
+                obj = arguments.get(head)
+                for attr in attrs:
+                    obj = getattr(obj, attr, None)
+                meshes[path] = obj
+            with validated(**meshes):
+                return func(*args, **kwargs)
+        return wrapper
+    return decorate
 
 
 def _ccw(p, t):
@@ -216,7 +319,7 @@ def disk_graded(h: float, grading: float = 2.0) -> MeshTri:
         marked = np.flatnonzero(diam > target)
         if marked.size == 0:
             break
-        mesh = refine_disk(mesh, marked)
+        mesh = _refine_disk(mesh, marked)
     else:  # pragma: no cover - the loop halves sizes, 200 passes cannot be needed
         raise RuntimeError("disk_graded did not reach the target sizes")
     return mesh
@@ -316,6 +419,12 @@ def refine_disk(mesh: MeshTri, marked=None) -> MeshTri:
     """
     if not isinstance(mesh, MeshTri):
         raise ValueError(f"mesh must be a skfem.MeshTri, got {type(mesh).__name__}")
+    check_mesh(mesh)
+    return _refine_disk(mesh, marked)
+
+
+def _refine_disk(mesh: MeshTri, marked=None) -> MeshTri:
+    """:func:`refine_disk` without the mesh check (for meshes built or checked here)."""
     if marked is None:
         fine = mesh.refined()
     else:

@@ -27,6 +27,8 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .memory import check_dense
+
 logger = logging.getLogger(__name__)
 
 __all__ = [
@@ -62,6 +64,9 @@ def cholesky_factor(A):
     A = A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
     if A.ndim != 2 or A.shape[0] != A.shape[1]:
         raise ValueError(f"A must be a square matrix; got shape {A.shape}")
+    n = A.shape[0]
+    check_dense(8.0 * n * n, what=f"the Cholesky factor of the {n} × {n} free-node matrix",
+                advice="use a coarser mesh")
     try:
         return la.cho_factor(A, lower=True)
     except la.LinAlgError as err:
@@ -75,9 +80,16 @@ def _solve(factor, rhs):
 
 
 def schur_complement(factor, B, block: int = 512) -> np.ndarray:
-    """Dense S = Bᵀ A⁻¹ B, computed in column blocks to bound memory."""
+    """Dense S = Bᵀ A⁻¹ B, computed in column blocks to bound memory.
+
+    Refused (:class:`fracfem.memory.DenseMemoryError`) before allocating if S and
+    its symmetrisation (three m × m arrays) do not fit.
+    """
     B = sp.csc_matrix(B)
-    m = B.shape[1]
+    n, m = B.shape
+    check_dense(8.0 * (3.0 * m * m + 2.0 * n * min(block, m)),
+                what=f"the dense Schur complement S = Bᵀ A⁻¹ B of m = {m} multipliers",
+                advice="use a coarser multiplier mesh")
     S = np.empty((m, m))
     Bt = B.T.tocsr()
     for start in range(0, m, block):

@@ -13,6 +13,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from .assembly import mesh_arrays
+from .meshes import validates
 
 __all__ = ["locate", "interpolation_matrix", "interpolate", "interpolate_at", "transfer",
            "space_time_distance"]
@@ -32,6 +33,7 @@ def _barycentric(p0, Jinv, el, x):
     return np.column_stack([1.0 - xi[:, 0] - xi[:, 1], xi[:, 0], xi[:, 1]])
 
 
+@validates("mesh")
 def locate(mesh, points, *, tol: float = 1e-10, candidates: int = 12):
     """Element containing each point, and its barycentric coordinates.
 
@@ -79,6 +81,7 @@ def locate(mesh, points, *, tol: float = 1e-10, candidates: int = 12):
     return el, bary
 
 
+@validates("mesh")
 def interpolation_matrix(mesh, points) -> sp.csr_matrix:
     """Sparse E with (E u)_j = u_h(x_j): P1 evaluation (0 outside the mesh)."""
     elem, bary = locate(mesh, points)
@@ -90,6 +93,7 @@ def interpolation_matrix(mesh, points) -> sp.csr_matrix:
                          shape=(n, mesh.p.shape[1]))
 
 
+@validates("mesh")
 def interpolate_at(mesh, u, points, **kwargs) -> np.ndarray:
     """Values at ``points`` (2, N) of the P1 function u (nodal, all nodes of
     ``mesh``), extended by 0 outside the mesh polygon."""
@@ -103,6 +107,7 @@ def interpolate_at(mesh, u, points, **kwargs) -> np.ndarray:
     return np.where(el >= 0, vals, 0.0)
 
 
+@validates("mesh_from", "mesh_to")
 def transfer(mesh_from, u_from, mesh_to) -> np.ndarray:
     """Nodal interpolation of a P1 function onto another mesh: the values at the
     nodes of ``mesh_to`` (0 outside the old polygon and on ∂Ω of the new mesh)."""
@@ -113,6 +118,7 @@ def transfer(mesh_from, u_from, mesh_to) -> np.ndarray:
     return u
 
 
+@validates("mesh_from", "mesh_to")
 def interpolate(mesh_from, u, mesh_to) -> np.ndarray:
     """Nodal interpolant on mesh_to of the P1 function u on mesh_from."""
     u = np.asarray(u, dtype=float)

@@ -17,7 +17,7 @@ from . import mixed, solvers
 from .assembly import QuadratureOptions
 from .exact import check_s
 from .laplace import Discretisation, discretise
-from .meshes import refine_disk
+from .meshes import refine_disk, validates
 
 __all__ = ["MixedProblem", "mixed_problem", "solve", "fine_mesh"]
 
@@ -47,6 +47,7 @@ class MixedProblem:
         return self.disc.mesh
 
 
+@validates("coarse", "fine")
 def mixed_problem(kind: str, coarse, s: float, f, *, chi: Callable | None = None,
                   F: float | None = None, subdomain: Callable | None = None,
                   edges: np.ndarray | None = None, height: Callable | None = None,

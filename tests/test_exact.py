@@ -11,10 +11,15 @@ from fracfem.exact import (bubble_laplacian, c2s, check_s, disk_energy, disk_sol
 S_VALUES = [0.05, 0.1, 0.25, 0.5, 0.6, 0.75, 0.9, 0.95]
 
 
-@pytest.mark.parametrize("s", S_VALUES)
-def test_c2s_formula(s):
-    expected = 2 ** (2 * s) * s * gamma(1 + s) / (np.pi * gamma(1 - s))
-    assert c2s(s) == pytest.approx(expected, rel=1e-14)
+@pytest.mark.parametrize("s", [v for v in S_VALUES if v != 0.5])
+def test_c2s_is_the_closed_form_of_the_defining_integral(s):
+    """1/c = ∫_{R²} (1 − cos z₁) |z|^(−2−2s) dz, evaluated by another route than the
+    implementation's: integrating over z₂ gives |t|^(−1−2s) √π Γ(s+½)/Γ(s+1), and
+    ∫₀^∞ (1 − cos t) t^(−1−α) dt = Γ(1−α) cos(πα/2)/α for α = 2s ≠ 1 (the
+    Mellin transform of 1 − cos); s = ½ is the removable singularity, tested below."""
+    inner = np.sqrt(np.pi) * gamma(s + 0.5) / gamma(s + 1)
+    radial = gamma(1 - 2 * s) * np.cos(np.pi * s) / (2 * s)
+    assert c2s(s) == pytest.approx(1.0 / (inner * 2 * radial), rel=1e-13)
 
 
 def test_c2s_known_value_at_one_half():
@@ -46,10 +51,52 @@ def test_c2s_normalises_the_fourier_symbol(s):
     assert c2s(s) * inner * 2 * (a + tail) == pytest.approx(1.0, rel=1e-8)
 
 
-@pytest.mark.parametrize("s", S_VALUES)
-def test_disk_solution_constant_formula(s):
-    assert disk_solution_constant(s) == pytest.approx(
-        1.0 / (4 ** s * gamma(1 + s) ** 2), rel=1e-14)
+def test_disk_solution_constant_limits():
+    """s → 0: (−Δ)⁰ = I and (1−|x|²)⁰ = 1, so C → 1; s → 1: −Δ[(1−|x|²)/4] = 1, so
+    C → 1/4; both with O(s), O(1−s) errors.  s = ½: 2/π, the mean exit time of the
+    Cauchy process from the unit disk at its centre (Getoor 1961)."""
+    for eps in [1e-3, 1e-5, 1e-7]:
+        assert abs(disk_solution_constant(eps) - 1.0) <= eps
+        assert abs(disk_solution_constant(1 - eps) - 0.25) <= eps
+    assert disk_solution_constant(0.5) == pytest.approx(2.0 / np.pi, rel=1e-14)
+
+
+def fractional_laplacian_of_disk_solution(x0, s):
+    """(−Δ)^s u(x0) for u = C_s(1−|x|²)_+^s at any x0 in the disk, by quadrature.
+
+    (−Δ)^s u(x0) = c ∫₀^π ∫₀^∞ (2u(x0) − u(x0+rω) − u(x0−rω)) r^(−1−2s) dr dθ;
+    the radial integral is split at the distances to the circle along ±ω, the part
+    r < δ = 10⁻³(1−|x0|²) uses the second-order Taylor term (error O(δ^(4−2s))) and
+    the part beyond the circle, where u = 0, is 2u(x0) R^(−2s)/(2s) in closed form.
+    """
+    C = disk_solution_constant(s)
+    a = 1.0 - x0 @ x0
+    delta = 1e-3 * a                     # u varies on the scale 1 − |x0|² near x0
+
+    def radial(th):
+        b = x0 @ np.array([np.cos(th), np.sin(th)])
+        root = np.sqrt(b * b + a)
+        lo, hi = sorted((root - b, root + b))
+        d2 = 4 * s * (s - 1) * a ** (s - 2) * b * b - 2 * s * a ** (s - 1)  # ∂²_r (a−2rb−r²)^s
+        head = -C * d2 * delta ** (2 - 2 * s) / (2 - 2 * s)
+
+        def f(r):
+            up, um = max(a - 2 * r * b - r * r, 0.0), max(a + 2 * r * b - r * r, 0.0)
+            return C * (2 * a ** s - up ** s - um ** s) * r ** (-1 - 2 * s)
+
+        body = sum(quad(f, u, v, epsabs=0, epsrel=1e-10, limit=200)[0]
+                   for u, v in ((delta, lo), (lo, hi)))
+        return head + body + 2 * C * a ** s * hi ** (-2 * s) / (2 * s)
+
+    return c2s(s) * quad(radial, 0, np.pi, epsabs=0, epsrel=1e-10, limit=200)[0]
+
+
+@pytest.mark.parametrize("s", [0.25, 0.5, 0.75])
+@pytest.mark.parametrize("x0", [(0.5, 0.2), (0.0, 0.9)])
+def test_disk_solution_solves_the_equation_off_centre(s, x0):
+    """(−Δ)^s u = 1 also away from the centre (no radial symmetry used)."""
+    val = fractional_laplacian_of_disk_solution(np.array(x0), s)
+    assert val == pytest.approx(1.0, rel=1e-7)
 
 
 def radial_fractional_laplacian_at_zero(u0, du, s):

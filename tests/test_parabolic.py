@@ -571,7 +571,26 @@ def test_algorithm_c_friction_and_doerfler():
     assert chosen.sum() >= 0.5 * eta2.sum() * (1 - 1e-12)       # Dörfler bulk
     assert recs[1].eta < recs[0].eta
     assert recs[0].first_contact_time is None
-    assert np.all(recs[1].steps["n_active"] >= 0)
+    # Example 5 comes to rest: slip and stick coexist at t = 0.2, every coarse element
+    # sticks (λ strictly inside [−F, F]) by T, and each snapshot satisfies the friction
+    # complementarity: |λ_j| ≤ F_j, mean of u_h zero on sticking elements, and
+    # λ_j ⟨μ_j, u_h⟩ = F_j |⟨μ_j, u_h⟩| (slip against the sign of the motion)
+    n_act = recs[1].steps["n_active"]
+    for snap, stick in ((recs[1].outputs[0.2], "some"), (recs[1].final, "all")):
+        prob = make(snap["coarse"])
+        F = prob.cset.upper
+        lam, y = snap["lam"], prob.cset.B.T @ snap["u"][prob.disc.free]
+        sticks = np.abs(lam) < F * (1 - 1e-9)
+        assert np.all(np.abs(lam) <= F * (1 + 1e-12))
+        assert np.abs(y[sticks]).max(initial=0.0) <= 1e-12 * np.abs(y).max(initial=1e-300) + 1e-15
+        np.testing.assert_allclose(lam * y, F * np.abs(y), rtol=0,
+                                   atol=1e-10 * np.max(F * np.abs(y)) + 1e-18)
+        k = int(np.searchsorted(recs[1].steps["t"], snap["t_step"] - 1e-12))
+        assert n_act[k] == np.count_nonzero(sticks)
+        if stick == "some":
+            assert 0 < sticks.sum() < len(lam) and np.abs(y).max() > 1e-4
+        else:
+            assert sticks.all()
     with pytest.raises(TypeError, match="MixedProblem"):
         spacetime_adaptive.algorithm_c(lambda c: laplace.discretise(meshes.refine_disk(c), S),
                               meshes.disk_uniform(1), 1.0, T=1.0, theta=0.5, iterations=1)

@@ -3,6 +3,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from fracfem import assembly, exact, laplace, meshes
 from fracfem.report import energy_error, extrapolate_energy, fit_rate, rate_table
 
 
@@ -33,9 +34,26 @@ def test_extrapolation_refuses_accelerating_decrease():
         extrapolate_energy([10, 20, 40], [1.0, 0.99, 0.9])
 
 
-def test_energy_error_is_exact_for_a_galerkin_energy():
-    # Example 1: E(u_h) − E(u) = ½‖u − u_h‖²_a
-    assert energy_error(-0.5 + 0.5 * 0.01, -0.5) == pytest.approx(0.1)
+def test_energy_error_is_the_energy_norm_error_of_example_1():
+    """E(v) − E(u) = ½‖u − v‖²_a for every v, since a(u, v) = (f, v).  For v = u_h,
+    Galerkin orthogonality gives ‖u − u_h‖²_a = a(u, u) − a(u_h, u_h), with a(u, u) =
+    (f, u) exact and a(u_h, u_h) = u_hᵀAu_h from the matrix (E(u_h) uses (f, u_h)
+    instead); for v = u_h + δφ_k it gives Pythagoras, ‖u − u_h‖²_a + δ² a(φ_k, φ_k)."""
+    s = 0.5
+    disc = laplace.discretise(meshes.disk_uniform(3), s, 1.0)
+    uh = laplace.solve_laplace(disc)
+    e_exact = -0.5 * exact.disk_energy(s)          # E(u) = ½ a(u, u) − (f, u) = −½ (f, u)
+    err = energy_error(assembly.energy(disc.A, disc.b, uh), e_exact)
+    assert err == pytest.approx(np.sqrt(exact.disk_energy(s) - uh @ disc.A @ uh), rel=1e-9)
+    assert 0.05 < err < 0.5                        # a real discretisation error
+    k, delta = len(uh) // 2, 0.1
+    v = uh.copy()
+    v[k] += delta
+    err_v = energy_error(assembly.energy(disc.A, disc.b, v), e_exact)
+    assert err_v == pytest.approx(np.sqrt(err ** 2 + delta ** 2 * disc.A[k, k]), rel=1e-9)
+    np.testing.assert_allclose(energy_error([assembly.energy(disc.A, disc.b, uh),
+                                             assembly.energy(disc.A, disc.b, v)], e_exact),
+                               [err, err_v], rtol=1e-15)
 
 
 def test_fit_rate_and_variants_in_rate_table():

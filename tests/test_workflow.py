@@ -52,8 +52,14 @@ def test_comma_separated_and_scalar_overrides():
 
 
 def test_default_config_targets_the_paper_figures():
-    _, text = dry_run()
-    assert "paper-figures/fig02-ex1-error.png" in text or "Nothing to be done" in text
+    """With the config as committed, every paper figure is written to paper-figures/
+    (--forceall: the jobs are listed whether or not their outputs are up to date)."""
+    _, text = dry_run("--forceall")
+    for num in range(1, 16):
+        assert re.search(rf"(?<![\w/])paper-figures/fig{num:02d}-[\w-]+\.png", text), num
+    assert "custom-" not in text
+    jobs = job_counts(text)
+    assert jobs["all"] == 1 and jobs["fig02"] == 1 and jobs["ex1_solve"] >= 10
 
 
 @pytest.mark.parametrize("override, message", [

@@ -1,0 +1,102 @@
+"""Memory guard of the dense paths: refuse a problem before allocating what cannot fit.
+
+The dense stiffness matrix of N nodes needs 8 N² bytes, and its far-field loop
+keeps one private N × N copy per parallel chunk (no write races), so N = 1.3·10⁵
+asks for hundreds of GiB.  Without a guard numpy allocates until it fails (or
+the system swaps); :func:`check_dense` refuses such a problem at once.
+
+The limit is the memory available now (``MemAvailable`` of /proc/meminfo, else
+free physical pages), or the value of the environment variable
+``FRACFEM_MEMORY_LIMIT`` (bytes, or with a suffix K, M, G, T: ``"2G"``), or a
+``memory_limit`` argument where a function offers one.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import re
+
+log = logging.getLogger(__name__)
+
+__all__ = ["DenseMemoryError", "available_memory", "memory_limit", "check_dense", "ENV"]
+
+ENV = "FRACFEM_MEMORY_LIMIT"
+GIB = 2.0 ** 30
+_UNITS = {"": 1, "K": 2 ** 10, "M": 2 ** 20, "G": 2 ** 30, "T": 2 ** 40}
+
+
+class DenseMemoryError(MemoryError, ValueError):
+    """A dense problem larger than the memory limit, raised before anything is allocated.
+
+    A MemoryError (what it is) and a ValueError (the input is refused like any other
+    bad input, so callers that catch bad input catch it too).
+    """
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available now: MemAvailable of /proc/meminfo, else free pages."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _parse_bytes(value, name) -> float:
+    """A positive number of bytes from a number or a string such as '2G' or '512M'."""
+    if isinstance(value, str):
+        m = re.fullmatch(r"\s*([0-9.eE+]+)\s*([KMGT]?)(i?B)?\s*", value.upper())
+        try:
+            num = float(m.group(1)) * _UNITS[m.group(2)] if m else float("nan")
+        except ValueError:
+            num = float("nan")
+    else:
+        try:
+            num = float(value)
+        except (TypeError, ValueError):
+            num = float("nan")
+    if not num > 0 or num == float("inf"):
+        raise ValueError(f"{name}={value!r} must be a positive number of bytes "
+                         f"(a number, or a string such as '2G' or '512M')")
+    return num
+
+
+def memory_limit(limit=None) -> tuple[float | None, str]:
+    """(bytes a dense path may use, where that number comes from).
+
+    ``limit`` if given, else ``$FRACFEM_MEMORY_LIMIT``, else :func:`available_memory`
+    (None if it cannot be read: no guard).
+    """
+    if limit is not None:
+        return _parse_bytes(limit, "memory_limit"), "allowed by memory_limit="
+    env = os.environ.get(ENV)
+    if env:
+        return _parse_bytes(env, ENV), f"allowed by {ENV}"
+    avail = available_memory()
+    return avail, "available (MemAvailable)"
+
+
+def check_dense(nbytes: float, *, what: str, advice: str, limit=None) -> None:
+    """Raise :class:`DenseMemoryError` if ``what`` needs more than the memory limit.
+
+    Parameters
+    ----------
+    nbytes : the estimated peak bytes of the dense path
+    what : what is built and its size, e.g. "the dense stiffness matrix for N = 9 nodes"
+    advice : the alternative offered in the message
+    limit : an explicit limit in bytes (see :func:`memory_limit`)
+    """
+    lim, source = memory_limit(limit)
+    if lim is None:
+        log.debug("memory available unknown; %s needs %.3g GiB", what, nbytes / GIB)
+        return
+    if nbytes > lim:
+        raise DenseMemoryError(f"{what} needs about {nbytes / GIB:.3g} GiB, but only "
+                               f"{lim / GIB:.3g} GiB are {source}; {advice}")
+    log.debug("%s: %.3g GiB of %.3g GiB %s", what, nbytes / GIB, lim / GIB, source)
