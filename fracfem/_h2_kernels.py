@@ -205,14 +205,17 @@ def leaf_moments(src, cent, perm, leaves, cl_start, cl_end, boxes, z, W):  # pra
                                    + s3 * L[3, a] + s4 * L[4, a] + s5 * L[5, a])
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def upward(W, E, level_nodes, level_ptr, child0, child1, m):  # pragma: no cover
-    """W[parent] = Σ_children E_childᵀ W[child], deepest level first."""
+    """W[parent] = Σ_children E_childᵀ W[child], deepest level first.
+
+    Serial: O(m³) per cluster is far less than a parallel region's barrier
+    costs on a loaded machine (one per level)."""
     nrhs = W.shape[1]
     p = m * m
     nlev = level_ptr.shape[0] - 1
     for lev in range(nlev - 1, -1, -1):
-        for ii in prange(level_ptr[lev], level_ptr[lev + 1]):
+        for ii in range(level_ptr[lev], level_ptr[lev + 1]):
             c = level_nodes[ii]
             a = child0[c]
             if a < 0:
@@ -246,13 +249,13 @@ def couple(G, W, K, blk_ptr, blk_col, blk_idx, rows):  # pragma: no cover
                     G[c, r, a] += acc
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def downward(G, E, level_nodes, level_ptr, child0, child1, m):  # pragma: no cover
     """G[child] += E_child G[parent], top level first."""
     nrhs = G.shape[1]
     nlev = level_ptr.shape[0] - 1
     for lev in range(nlev):
-        for ii in prange(level_ptr[lev], level_ptr[lev + 1]):
+        for ii in range(level_ptr[lev], level_ptr[lev + 1]):
             c = level_nodes[ii]
             a = child0[c]
             if a < 0:
@@ -307,15 +310,20 @@ def _csr_add(indptr, indices, data, i, j, v):  # pragma: no cover
 
 
 @njit(cache=True, parallel=True)
-def near_pairs(t, perm, cl_start, cl_end, near_rows, near_cols, cent, diam, area, mom,
-               grad, qx, qw, lam, offsets, thresholds, taylor, s,
-               indptr, indices, nchunks):  # pragma: no cover
+def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, diam,
+               area, mom, grad, qx, qw, lam, offsets, thresholds, taylor, s,
+               indptr, indices, nv, nchunks):  # pragma: no cover
     """Separated element pairs of the near blocks with the dense assembly's
     rules (:func:`fracfem._kernels.far_pairs`); touching pairs are skipped.
 
-    Each unordered pair once: blocks with σ < τ whole, σ = τ for T < T'.
-    Off-diagonal parts X and Xᵀ go into per-chunk copies of the CSR data
-    (nchunks, nnz); D (nchunks, nt, nq_total + 4) as in far_pairs.
+    Near blocks sorted by row cluster σ (near_ptr[i]:near_ptr[i+1] are the
+    blocks of row near_rows[i]).  Each unordered pair once: blocks with σ < τ
+    whole, σ = τ for T < T'.  The one-sided part X of a pair (T, T') goes to
+    entry (t[T, a], t[T', b]) of per-chunk copies of the CSR data (nchunks,
+    nnz), found through a column → position map of the three rows of T (the
+    pattern holds nodes(σ) × nodes(τ) of every near block); add the
+    transpose with :func:`symmetrize_csr`.  D (nchunks, nt, nq_total + 4) as
+    in far_pairs.
     """
     nt = t.shape[0]
     nlev = offsets.shape[0] - 1
@@ -324,105 +332,128 @@ def near_pairs(t, perm, cl_start, cl_end, near_rows, near_cols, cent, diam, area
     alpha = -2.0 - 2.0 * s
     data = np.zeros((nchunks, indices.shape[0]))
     D = np.zeros((nchunks, nt, nqt + 4))
-    nb = near_rows.shape[0]
+    nrow = near_rows.shape[0]
     for c in prange(nchunks):
         W = np.empty((64, 64))
         V = np.empty((3, 64))
         X = np.empty((3, 3))
-        for bb in range(c, nb, nchunks):
-            sig = near_rows[bb]
-            tau = near_cols[bb]
-            if sig > tau:
-                continue
+        pos = np.zeros((3, nv), dtype=np.int64)
+        for ri in range(c, nrow, nchunks):
+            sig = near_rows[ri]
             for k1 in range(cl_start[sig], cl_end[sig]):
                 T = perm[k1]
                 i0, i1, i2 = t[T, 0], t[T, 1], t[T, 2]
-                k2s = cl_start[tau]
-                if sig == tau:
-                    k2s = k1 + 1
-                for k2 in range(k2s, cl_end[tau]):
-                    T2 = perm[k2]
-                    j0, j1, j2 = t[T2, 0], t[T2, 1], t[T2, 2]
-                    if (i0 == j0 or i0 == j1 or i0 == j2 or i1 == j0 or i1 == j1
-                            or i1 == j2 or i2 == j0 or i2 == j1 or i2 == j2):
+                for a in range(3):
+                    ia = t[T, a]
+                    for kk in range(indptr[ia], indptr[ia + 1]):
+                        pos[a, indices[kk]] = kk
+                for bb in range(near_ptr[ri], near_ptr[ri + 1]):
+                    tau = near_cols[bb]
+                    if sig > tau:
                         continue
-                    dx = cent[T, 0] - cent[T2, 0]
-                    dy = cent[T, 1] - cent[T2, 1]
-                    hm = max(diam[T], diam[T2])
-                    r2 = dx * dx + dy * dy
-                    lev = nlev - 1
-                    for L in range(nlev - 1):
-                        if r2 >= thresholds[L] * thresholds[L] * hm * hm:
-                            lev = L
-                            break
-                    q0 = offsets[lev]
-                    nq = offsets[lev + 1] - q0
-                    if taylor and lev == 0:
-                        k = r2 ** expo
-                        kr = alpha * k / r2
-                        gx = kr * dx
-                        gy = kr * dy
-                        hxx = kr * (1.0 + (alpha - 2.0) * dx * dx / r2)
-                        hxy = kr * (alpha - 2.0) * dx * dy / r2
-                        hyy = kr * (1.0 + (alpha - 2.0) * dy * dy / r2)
-                        A1 = area[T]
-                        A2 = area[T2]
-                        tr1 = hxx * mom[T, 0] + 2.0 * hxy * mom[T, 1] + hyy * mom[T, 2]
-                        tr2 = hxx * mom[T2, 0] + 2.0 * hxy * mom[T2, 1] + hyy * mom[T2, 2]
-                        C0 = A1 * A2 * k + 0.5 * (A2 * tr1 + A1 * tr2)
-                        a1x = A2 * (mom[T, 0] * gx + mom[T, 1] * gy)
-                        a1y = A2 * (mom[T, 1] * gx + mom[T, 2] * gy)
-                        a2x = A1 * (mom[T2, 0] * gx + mom[T2, 1] * gy)
-                        a2y = A1 * (mom[T2, 1] * gx + mom[T2, 2] * gy)
-                        D[c, T, 0] += C0
-                        D[c, T2, 0] += C0
-                        D[c, T, 1] += a1x
-                        D[c, T, 2] += a1y
-                        D[c, T2, 1] -= a2x
-                        D[c, T2, 2] -= a2y
-                        D[c, T, 3] += k * A2
-                        D[c, T2, 3] += k * A1
-                        for a in range(3):
-                            pa = (a1x * grad[T, a, 0] + a1y * grad[T, a, 1]) / 3.0
-                            for b in range(3):
-                                pb = (a2x * grad[T2, b, 0] + a2y * grad[T2, b, 1]) / 3.0
-                                X[a, b] = -(C0 / 9.0 - pb + pa)
-                    else:
-                        for q in range(nq):
-                            xq0 = qx[T, q0 + q, 0]
-                            xq1 = qx[T, q0 + q, 1]
-                            wqq = qw[T, q0 + q]
-                            for r in range(nq):
-                                ex = xq0 - qx[T2, q0 + r, 0]
-                                ey = xq1 - qx[T2, q0 + r, 1]
-                                W[q, r] = wqq * qw[T2, q0 + r] * (ex * ex + ey * ey) ** expo
-                        for q in range(nq):
-                            sq = 0.0
-                            sr = 0.0
-                            for r in range(nq):
-                                sq += W[q, r]
-                                sr += W[r, q]
-                            D[c, T, 4 + q0 + q] += sq
-                            D[c, T2, 4 + q0 + q] += sr
-                        for a in range(3):
-                            for r in range(nq):
-                                acc = 0.0
-                                for q in range(nq):
-                                    acc += lam[q0 + q, a] * W[q, r]
-                                V[a, r] = acc
-                        for a in range(3):
-                            for b in range(3):
-                                acc = 0.0
+                    k2s = cl_start[tau]
+                    if sig == tau:
+                        k2s = k1 + 1
+                    for k2 in range(k2s, cl_end[tau]):
+                        T2 = perm[k2]
+                        j0, j1, j2 = t[T2, 0], t[T2, 1], t[T2, 2]
+                        if (i0 == j0 or i0 == j1 or i0 == j2 or i1 == j0 or i1 == j1
+                                or i1 == j2 or i2 == j0 or i2 == j1 or i2 == j2):
+                            continue
+                        dx = cent[T, 0] - cent[T2, 0]
+                        dy = cent[T, 1] - cent[T2, 1]
+                        hm = max(diam[T], diam[T2])
+                        r2 = dx * dx + dy * dy
+                        lev = nlev - 1
+                        for L in range(nlev - 1):
+                            if r2 >= thresholds[L] * thresholds[L] * hm * hm:
+                                lev = L
+                                break
+                        q0 = offsets[lev]
+                        nq = offsets[lev + 1] - q0
+                        if taylor and lev == 0:
+                            k = r2 ** expo
+                            kr = alpha * k / r2
+                            gx = kr * dx
+                            gy = kr * dy
+                            hxx = kr * (1.0 + (alpha - 2.0) * dx * dx / r2)
+                            hxy = kr * (alpha - 2.0) * dx * dy / r2
+                            hyy = kr * (1.0 + (alpha - 2.0) * dy * dy / r2)
+                            A1 = area[T]
+                            A2 = area[T2]
+                            tr1 = hxx * mom[T, 0] + 2.0 * hxy * mom[T, 1] + hyy * mom[T, 2]
+                            tr2 = hxx * mom[T2, 0] + 2.0 * hxy * mom[T2, 1] + hyy * mom[T2, 2]
+                            C0 = A1 * A2 * k + 0.5 * (A2 * tr1 + A1 * tr2)
+                            a1x = A2 * (mom[T, 0] * gx + mom[T, 1] * gy)
+                            a1y = A2 * (mom[T, 1] * gx + mom[T, 2] * gy)
+                            a2x = A1 * (mom[T2, 0] * gx + mom[T2, 1] * gy)
+                            a2y = A1 * (mom[T2, 1] * gx + mom[T2, 2] * gy)
+                            D[c, T, 0] += C0
+                            D[c, T2, 0] += C0
+                            D[c, T, 1] += a1x
+                            D[c, T, 2] += a1y
+                            D[c, T2, 1] -= a2x
+                            D[c, T2, 2] -= a2y
+                            D[c, T, 3] += k * A2
+                            D[c, T2, 3] += k * A1
+                            for a in range(3):
+                                pa = (a1x * grad[T, a, 0] + a1y * grad[T, a, 1]) / 3.0
+                                for b in range(3):
+                                    pb = (a2x * grad[T2, b, 0] + a2y * grad[T2, b, 1]) / 3.0
+                                    X[a, b] = -(C0 / 9.0 - pb + pa)
+                        else:
+                            for q in range(nq):
+                                xq0 = qx[T, q0 + q, 0]
+                                xq1 = qx[T, q0 + q, 1]
+                                wqq = qw[T, q0 + q]
                                 for r in range(nq):
-                                    acc += V[a, r] * lam[q0 + r, b]
-                                X[a, b] = -acc
-                    for a in range(3):
-                        ia = t[T, a]
-                        for b in range(3):
-                            jb = t[T2, b]
-                            _csr_add(indptr, indices, data[c], ia, jb, X[a, b])
-                            _csr_add(indptr, indices, data[c], jb, ia, X[a, b])
+                                    ex = xq0 - qx[T2, q0 + r, 0]
+                                    ey = xq1 - qx[T2, q0 + r, 1]
+                                    W[q, r] = wqq * qw[T2, q0 + r] * (ex * ex + ey * ey) ** expo
+                            for q in range(nq):
+                                sq = 0.0
+                                sr = 0.0
+                                for r in range(nq):
+                                    sq += W[q, r]
+                                    sr += W[r, q]
+                                D[c, T, 4 + q0 + q] += sq
+                                D[c, T2, 4 + q0 + q] += sr
+                            for a in range(3):
+                                for r in range(nq):
+                                    acc = 0.0
+                                    for q in range(nq):
+                                        acc += lam[q0 + q, a] * W[q, r]
+                                    V[a, r] = acc
+                            for a in range(3):
+                                for b in range(3):
+                                    acc = 0.0
+                                    for r in range(nq):
+                                        acc += V[a, r] * lam[q0 + r, b]
+                                    X[a, b] = -acc
+                        for a in range(3):
+                            for b in range(3):
+                                data[c, pos[a, t[T2, b]]] += X[a, b]
     return data, D
+
+
+@njit(cache=True, parallel=True)
+def symmetrize_csr(indptr, indices, data):  # pragma: no cover
+    """S + Sᵀ on a symmetric pattern with sorted indices."""
+    n = indptr.shape[0] - 1
+    out = np.empty_like(data)
+    for i in prange(n):
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            lo = indptr[j]
+            hi = indptr[j + 1] - 1
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if indices[mid] < i:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            out[k] = data[k] + data[lo]
+    return out
 
 
 @njit(cache=True)

@@ -336,13 +336,16 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     qx, qw, lam, offs = _far_rules(p, t, quad.far_orders, area2)
     import numba
     nchunks = numba.get_num_threads()
+    nr = near[np.lexsort((near[:, 1], near[:, 0]))]
+    rows, ptr = np.unique(nr[:, 0], return_index=True)
     data, D = hk.near_pairs(t, tree["perm"], tree["start"], tree["end"],
-                            near[:, 0].copy(), near[:, 1].copy(), cent, diam, area, mom,
-                            grad, qx, qw, lam, offs,
+                            np.append(ptr, len(nr)).astype(np.int64), rows.astype(np.int64),
+                            nr[:, 1].copy(), cent, diam, area, mom, grad, qx, qw, lam, offs,
                             np.asarray(quad.far_thresholds, dtype=np.float64), True, s,
-                            indptr, indices, nchunks)
+                            indptr, indices, nv, nchunks)
     del qx, qw
-    A.data = c * data.sum(axis=0)
+    data = data.sum(axis=0)
+    A.data = c * hk.symmetrize_csr(indptr, indices, data)
     del data
     D = D.sum(axis=0)
     tim["near"] = time.perf_counter() - t1

@@ -7,9 +7,16 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-from .assembly import QuadratureOptions, load_vector, stiffness_matrix
-from .memory import check_dense
+from .assembly import QuadratureOptions, dense_bytes, load_vector, stiffness_matrix
+from .compressed import DEFAULT_TOL, stiffness_operator
+from .krylov import pcg
+from .memory import check_dense, memory_limit
 from .meshes import validates
+from .preconditioners import multilevel_preconditioner
+
+OPERATORS = ("dense", "compressed", "auto")
+AUTO_DENSE_NODES = 8000   # "auto": dense up to this many free nodes (and if it fits)
+SOLVER_TOL = 1e-10        # relative PCG residual of solve_laplace
 
 __all__ = ["Discretisation", "discretise", "solve_laplace"]
 
@@ -21,9 +28,15 @@ class Discretisation:
     mesh: object
     s: float
     free: np.ndarray
-    A: np.ndarray                  # a(φ_i, φ_j), i, j free
+    A: object                      # a(φ_i, φ_j), i, j free: array or CompressedOperator
     b: np.ndarray                  # (f, φ_i), i free
     timings: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
+
+    @property
+    def dense(self) -> bool:
+        """True when A is a dense array (else a compressed operator)."""
+        return isinstance(self.A, np.ndarray)
 
     def extend(self, u_free: np.ndarray) -> np.ndarray:
         """Nodal vector over all nodes, zero on the boundary."""
@@ -32,26 +45,59 @@ class Discretisation:
         return u
 
 
+def _dense_fits(mesh) -> bool:
+    import numba
+    lim = memory_limit()[0]
+    need = dense_bytes(mesh.p.shape[1], mesh.t.shape[1], numba.get_num_threads())
+    return lim is None or need < 0.5 * lim
+
+
 @validates("mesh")
 def discretise(mesh, s: float, f=1.0, *, quadrature: QuadratureOptions | None = None,
-               load_order: int = 6) -> Discretisation:
+               load_order: int = 6, operator: str = "dense",
+               tol: float = DEFAULT_TOL) -> Discretisation:
     """Assemble the free-node matrix and load vector of (−Δ)^s u = f.
 
-    The mesh is checked once (:func:`fracfem.meshes.validate_mesh`); a problem whose
-    dense matrix does not fit into memory is refused before assembly
-    (:func:`fracfem.assembly.stiffness_matrix`, limit ``$FRACFEM_MEMORY_LIMIT``).
+    operator: "dense" (an array; refused before assembly when it does not fit,
+    limit ``$FRACFEM_MEMORY_LIMIT``), "compressed"
+    (:func:`fracfem.compressed.stiffness_operator` with accuracy ``tol``) or
+    "auto" (dense up to 8,000 free nodes when it fits, else compressed).
+    The mesh is checked once (:func:`fracfem.meshes.validate_mesh`).
     """
-    tim: dict = {}
-    A = stiffness_matrix(mesh, s, quadrature=quadrature, timings=tim)
+    if operator not in OPERATORS:
+        raise ValueError(f"operator={operator!r} must be one of {OPERATORS}")
     free = mesh.interior_nodes()
-    Af = np.ascontiguousarray(A[np.ix_(free, free)])
-    del A
+    if operator == "auto":
+        operator = "dense" if len(free) <= AUTO_DENSE_NODES and _dense_fits(mesh) \
+            else "compressed"
+    tim: dict = {}
+    if operator == "dense":
+        A = stiffness_matrix(mesh, s, quadrature=quadrature, timings=tim)
+        Af = np.ascontiguousarray(A[np.ix_(free, free)])
+        del A
+        info = {"operator": "dense"}
+    else:
+        Af = stiffness_operator(mesh, s, tol=tol, quadrature=quadrature)
+        tim = Af.info["timings"]
+        info = {"operator": "compressed", "tol": tol, "order": Af.info["order"],
+                "nbytes": Af.nbytes}
     b = load_vector(mesh, f, order=load_order)[free]
-    return Discretisation(mesh, float(s), free, Af, b, {"assembly": tim["total"]})
+    return Discretisation(mesh, float(s), free, Af, b, {"assembly": tim["total"]}, info)
 
 
-def solve_laplace(disc: Discretisation) -> np.ndarray:
-    """u_h on the free nodes by a Cholesky factorisation; timing in disc.timings."""
+def solve_laplace(disc: Discretisation, *, tol: float = SOLVER_TOL,
+                  maxiter: int = 2000) -> np.ndarray:
+    """u_h on the free nodes: Cholesky for a dense A, else PCG with the
+    multilevel preconditioner (iterations in disc.info); timing in
+    disc.timings."""
+    if not disc.dense:
+        t0 = time.perf_counter()
+        M = multilevel_preconditioner(disc.mesh, disc.A)
+        disc.timings["preconditioner"] = time.perf_counter() - t0
+        u, stats = pcg(disc.A, disc.b, M=M, tol=tol, maxiter=maxiter)
+        disc.timings["solve"] = time.perf_counter() - t0
+        disc.info.update(iterations=stats["iterations"], residual=stats["residual"])
+        return u
     t0 = time.perf_counter()
     n = len(disc.A)
     check_dense(8.0 * n * n, what=f"the Cholesky factor of the {n} × {n} free-node matrix",
