@@ -10,7 +10,7 @@ from .solvers import ConvergenceError
 
 log = logging.getLogger(__name__)
 
-__all__ = ["pcg", "jacobi"]
+__all__ = ["pcg", "jacobi", "ShiftedOperator"]
 
 LOG_EVERY = 10.0  # seconds between progress lines of a long solve
 
@@ -76,3 +76,22 @@ def pcg(A, b: np.ndarray, *, M=None, tol: float = 1e-10, maxiter: int = 1000,
     sec = time.perf_counter() - t0
     log.info("PCG: %d iterations, relative residual %.2e, %.2f s", it, res, sec)
     return x, {"iterations": it, "residual": res, "seconds": sec}
+
+
+class ShiftedOperator:
+    """K = A + c·M for an operator A (``@``, ``diagonal()``) and a sparse M:
+    the DG(0) matrix M/τ + A with c = 1/τ."""
+
+    def __init__(self, A, M, c: float):
+        if not (np.isfinite(c) and c > 0):
+            raise ValueError(f"c={c!r} must be a positive number")
+        if A.shape != M.shape:
+            raise ValueError(f"A {A.shape} and M {M.shape} must have the same shape")
+        self.A, self.M, self.c = A, M, float(c)
+        self.shape = A.shape
+
+    def __matmul__(self, x):
+        return self.A @ x + self.c * (self.M @ x)
+
+    def diagonal(self) -> np.ndarray:
+        return self.A.diagonal() + self.c * self.M.diagonal()

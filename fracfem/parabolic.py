@@ -62,7 +62,9 @@ import scipy.sparse.linalg as spla
 
 from . import solvers
 from .assembly import load_vector
-from .laplace import Discretisation
+from .krylov import ShiftedOperator, pcg
+from .laplace import SOLVER_TOL, Discretisation
+from .preconditioners import multilevel_preconditioner
 
 __all__ = [
     "mass_matrix",
@@ -299,6 +301,8 @@ class Stepper:
         key = self._key(tau)
         if key is not None:
             return key, self._ops[key]
+        if not self.disc.dense:
+            return tau, self._compressed_operator(tau)
         if self._M_dense is None:
             self._M_dense = self.M.toarray()
         t0 = time.perf_counter()
@@ -316,6 +320,19 @@ class Stepper:
         while len(self._ops) > self.max_cached:
             self._ops.popitem(last=False)
         return tau, op
+
+    def _compressed_operator(self, tau: float) -> dict:
+        """M/τ + A as an operator with its multilevel preconditioner (cached)."""
+        t0 = time.perf_counter()
+        K = ShiftedOperator(self.disc.A, self.M, 1.0 / tau)
+        op = {"K": K, "preconditioner": multilevel_preconditioner(self.mesh, K),
+              "factor": None, "schur": None, "rho": None}
+        self.timings["factorisation"] += time.perf_counter() - t0
+        self.n_factorisations += 1
+        self._ops[tau] = op
+        while len(self._ops) > self.max_cached:
+            self._ops.popitem(last=False)
+        return op
 
     # ---- loads
 
@@ -346,9 +363,17 @@ class Stepper:
         tau, op = self.operator(tau)
         rhs = self.M @ u_prev / tau + load
         t0 = time.perf_counter()
-        if self.cset is None:
+        if self.cset is None and op["factor"] is None:
+            # warm start from u^{k−1}: the step changes u by O(τ)
+            u, info = pcg(op["K"], rhs, M=op["preconditioner"], x0=u_prev, tol=SOLVER_TOL)
+            lam = None
+        elif self.cset is None:
             u = la.cho_solve(op["factor"], rhs, check_finite=False)
             lam, info = None, {}
+        elif op["factor"] is None:
+            raise ValueError("the obstacle and friction DG(0) steps need the dense operator "
+                             "(discretise(..., operator='dense')); with the compressed one "
+                             "only the unconstrained heat equation is stepped")
         else:
             opts = dict(solver_options or {})
             if lam0 is not None and "lam0" not in opts:

@@ -90,3 +90,29 @@ def test_pcg_reports_non_convergence_and_bad_input():
         pcg(op, b, tol=2.0)
     with pytest.raises(ValueError, match="non-finite"):
         pcg(op, b * np.nan)
+
+
+def test_dg0_steps_with_compressed_operator_match_dense():
+    import fracfem as ff
+
+    mesh = disk_uniform(4)
+    runs = {}
+    for op in ("dense", "compressed"):
+        disc = ff.discretise(mesh, 0.5, 0.0, operator=op)
+        runs[op] = list(ff.time_steps(disc, 1.0, T=0.3, tau=0.05))
+    assert runs["compressed"][0].t == runs["dense"][0].t
+    for a, b in zip(runs["dense"], runs["compressed"]):
+        assert np.linalg.norm(a.u - b.u) <= 1e-7 * np.linalg.norm(a.u)
+    # warm-started steps: fewer iterations once u changes slowly
+    its = [st.info["iterations"] for st in runs["compressed"] if "iterations" in st.info]
+    assert len(its) == 6 and its[-1] < its[0]
+
+
+def test_discretise_operator_choice():
+    import fracfem as ff
+
+    mesh = disk_uniform(3)
+    assert ff.discretise(mesh, 0.5, operator="auto").dense
+    assert not ff.discretise(mesh, 0.5, operator="compressed").dense
+    with pytest.raises(ValueError, match="operator='sparse'"):
+        ff.discretise(mesh, 0.5, operator="sparse")
