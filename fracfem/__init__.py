@@ -21,3 +21,17 @@ __all__ = [
     "Stepper", "TimeStep", "time_steps", "solve_parabolic", "initial_projection",
     "space_time_indicators", "algorithm_c", "algorithm_c_steps", "Slab", "IterationRecord",
 ]
+
+from . import problems  # noqa: E402
+from .kkt import discrete_energy, friction_functional, kkt_report  # noqa: E402
+from .problems import (EXAMPLES, Example1, Example2, Example3, Example4,  # noqa: E402
+                       Example5, ThinFrictionDemo, ThinObstacleDemo, example,
+                       multiplier_mesh, parse_series_tag, series_mesh, series_tag)
+from .stepsize import time_step  # noqa: E402
+
+__all__ += [
+    "discrete_energy", "friction_functional", "kkt_report", "time_step",
+    "EXAMPLES", "Example1", "Example2", "Example3", "Example4", "Example5",
+    "ThinObstacleDemo", "ThinFrictionDemo", "example", "series_tag", "parse_series_tag",
+    "series_mesh", "multiplier_mesh",
+]
