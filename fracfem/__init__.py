@@ -35,3 +35,6 @@ __all__ += [
     "ThinObstacleDemo", "ThinFrictionDemo", "example", "series_tag", "parse_series_tag",
     "series_mesh", "multiplier_mesh",
 ]
+from .parabolic import heat_error, time_grid  # noqa: E402
+
+__all__ += ["heat_error", "time_grid"]
