@@ -23,7 +23,7 @@ def run_level(level: int, s: float) -> dict:
     import fracfem as ff
     from fracfem import _kernels
     from fracfem.assembly import mesh_arrays
-    from fracfem.io import peak_memory_mb
+    from fracfem_workflow.io import peak_memory_mb
 
     ff.stiffness_matrix(ff.disk_uniform(1), s)            # load cached kernels
     mesh = ff.disk_uniform(level)
@@ -74,9 +74,9 @@ if __name__ == "__main__":
     fmt["pairs_per_s"] = fmt["pairs_per_s"].map(lambda v: f"{v:.3g}")
     print(fmt.to_string(index=False))
     if args.csv:
-        from fracfem.io import write_table
+        from fracfem_workflow.io import write_table
         write_table(df, args.csv)
     if args.md:
-        from fracfem.io import atomic_path
+        from fracfem_workflow.io import atomic_path
         with atomic_path(args.md) as tmp:
             tmp.write_text(fmt.to_markdown(index=False) + "\n")

@@ -25,6 +25,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from . import estimators
+from .kkt import discrete_energy
 from .laplace import Discretisation, solve_laplace
 from .meshes import element_diameters, refine_disk
 
@@ -161,9 +162,7 @@ def algorithm_b_steps(make_problem: Callable, coarse0, *, theta: float, steps: i
             raise TypeError(f"make_problem must return a vi.MixedProblem or a "
                             f"laplace.Discretisation, got {type(prob).__name__}")
         uf = u[disc.free]
-        energy = 0.5 * float(uf @ (disc.A @ uf)) - float(disc.b @ uf)
-        if isinstance(prob, MixedProblem) and prob.kind == "friction":
-            energy += float(np.sum(prob.cset.upper * np.abs(prob.cset.B.T @ uf)))
+        energy = discrete_energy(prob, u)
         lengths = element_diameters(fine)
         rec = StepRecord(step=k, dofs=len(disc.free), n_multipliers=n_mult,
                          n_triangles=fine.t.shape[1],

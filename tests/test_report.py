@@ -1,10 +1,10 @@
-"""Rates and reference energies (fracfem.report)."""
+"""Rates and reference energies (fracfem_workflow.report)."""
 import numpy as np
 import pandas as pd
 import pytest
 
 from fracfem import assembly, exact, laplace, meshes
-from fracfem.report import energy_error, extrapolate_energy, fit_rate, rate_table
+from fracfem_workflow.report import energy_error, extrapolate_energy, fit_rate, rate_table
 
 
 def test_extrapolation_recovers_the_model_limit():

@@ -4,7 +4,6 @@ import pytest
 
 import fracfem as ff
 from fracfem import examples, vi
-from fracfem.io import save_arrays, write_table
 from fracfem.solvers import ConvergenceError
 
 CHI = examples.paraboloid_obstacle(1.0, 4.0)
@@ -114,18 +113,3 @@ def test_bad_input_is_refused(coarse):
         vi.solve(prob, "newton")
     with pytest.raises(ConvergenceError):
         vi.solve(prob, "uzawa", maxiter=2)
-
-
-def test_failed_writes_leave_no_file(tmp_path):
-    import pandas as pd
-    target = tmp_path / "row.csv"
-
-    class Boom(pd.DataFrame):
-        def to_csv(self, *a, **k):
-            raise RuntimeError("disk full")
-
-    with pytest.raises(RuntimeError):
-        write_table(Boom({"a": [1]}), target)
-    assert list(tmp_path.iterdir()) == []
-    save_arrays(tmp_path / "x.npz", a=np.arange(3))
-    assert [p.name for p in tmp_path.iterdir()] == ["x.npz"]

@@ -3,9 +3,12 @@
 # never writes over the committed paper figures).
 import hashlib
 import json
+from pathlib import Path
 
 import yaml
 from snakemake.utils import validate
+
+from fracfem.problems import series_tag   # the tag format the scripts parse
 
 
 def _as_list(value, name):
@@ -13,7 +16,7 @@ def _as_list(value, name):
     if isinstance(value, str):
         text = value.strip()
         if not text.startswith("["):
-            text = "[" + text + "]"
+            text = f"[{text}]"
         try:
             value = yaml.safe_load(text)
         except yaml.YAMLError as err:
@@ -47,8 +50,7 @@ def _fingerprint(cfg):
     return hashlib.sha1(json.dumps(_science(cfg), sort_keys=True).encode()).hexdigest()[:10]
 
 
-with open(workflow.basedir + "/config.yaml") as _fh:
-    _default = yaml.safe_load(_fh)
+_default = yaml.safe_load((Path(workflow.basedir) / "config.yaml").read_text())
 
 RES = config["results_dir"]
 OUT = config["output_root"]
@@ -56,8 +58,19 @@ if OUT == _default["output_root"] and _fingerprint(config) != _fingerprint(_defa
     OUT = f"{RES}/custom-{_fingerprint(config)}/figures"
     logger.info(f"config differs from config.yaml: figures go to {OUT}")
 
+ENV = "../envs/fracfem.yaml"
 EX1 = config["example1"]
+EX2 = config["example2"]
+EX3 = config["example3"]
+THIN = config["thin"]
+PARA = config["parabolic"]
+QUADRATURE = config["quadrature"]
+SOLVER = config["solver"]
+GRADING = EX1["grading"]      # the grading exponent of every graded mesh
 S_EX1 = sorted({float(EX1["s"])} | {float(s) for s in config["s_values"]})
+VI_PROBLEMS = ["ex2"] + [f"ex3-{v}" for v in EX3["variants"]]
+PARA_PROBLEMS = list(PARA["examples"])
+PARA_REF_TAG = series_tag("graded", PARA["reference"]["graded_h"])
 
 
 def fmt(x):
@@ -65,18 +78,105 @@ def fmt(x):
     return f"{float(x):g}"
 
 
-def ex1_level_tags(family):
-    if family == "uniform":
-        return [f"L{int(l)}" for l in EX1["uniform_levels"]]
-    return [f"h{fmt(h)}" for h in EX1["graded_h"]]
+def path(pattern, **wildcards):
+    """One file of a rule's output pattern, wildcards not given kept as wildcards."""
+    (out,) = expand(pattern, **wildcards, allow_missing=True)
+    return out
 
 
-def ex1_rows(s_list):
-    return [f"{RES}/ex1/{fam}/s{fmt(s)}/{tag}.csv"
-            for s in s_list for fam in ("uniform", "graded") for tag in ex1_level_tags(fam)]
+def series(block):
+    """(family, tag) of every run of the uniform and graded series of a config block."""
+    return ([("uniform", series_tag("uniform", lv)) for lv in block["uniform_levels"]]
+            + [("graded", series_tag("graded", h)) for h in block["graded_h"]])
+
+
+def last_tag(block, family):
+    """The tag of the last run of a family's series in a config block."""
+    return [tag for fam, tag in series(block) if fam == family][-1]
+
+
+def ex1_runs(s_list, key="row"):
+    """Example 1's uniform and graded runs for every s of s_list."""
+    return [path(getattr(rules.ex1_solve.output, key), family=fam, s=fmt(s), tag=tag)
+            for s in s_list for fam, tag in series(EX1)]
+
+
+# ------------------------------------------------- the examples behind the problem names
+def vi_example(wildcards):
+    """fracfem.example name of an elliptic problem (ex2, ex3-<variant>, thin-<kind>)."""
+    problem = wildcards.problem
+    return problem if problem.startswith("thin-") else problem.split("-")[0]
+
+
+def vi_data(wildcards):
+    """The parameters of fracfem.example(vi_example(wildcards), ...)."""
+    problem = wildcards.problem
+    if problem == "ex2":
+        return {"s": EX2["s"], **EX2["obstacle"]}
+    if problem.startswith("ex3-"):
+        return {"s": EX3["s"], **EX3["variants"][problem[4:]]}
+    kind = problem[len("thin-"):]
+    return {"s": THIN["s"], "segment": THIN["segment"], **THIN[kind]}
+
+
+def para_example(wildcards):
+    """fracfem.example name of a parabolic problem (ex4-<u0>, ex5)."""
+    return wildcards.problem.split("-")[0]
+
+
+def para_data(wildcards):
+    """The parameters of fracfem.example(para_example(wildcards), ...); Example 4 has
+    the obstacle of Example 2."""
+    data = dict(PARA["examples"][wildcards.problem])
+    if wildcards.problem.startswith("ex4"):
+        data.update(EX2["obstacle"])
+    return data
+
+
+def para_tau_factor(wildcards):
+    """τ = factor · h_max^{2s}: the factor of a family (the reference has its own)."""
+    if wildcards.family == "reference":
+        return PARA["reference"]["tau_factor"]
+    return PARA["tau_factor"][wildcards.family]
+
+
+def vi_series_rows(wildcards):
+    """The uniform and graded runs of an elliptic obstacle/friction problem."""
+    block = EX2 if wildcards.problem == "ex2" else EX3
+    return [path(rules.vi_solve.output.row, problem=wildcards.problem, family=fam, tag=tag)
+            for fam, tag in series(block)]
+
+
+def para_series(wildcards, key):
+    return [path(getattr(rules.para_solve.output, key), problem=wildcards.problem, family=fam,
+                 tag=tag)
+            for fam, tag in series(PARA)]
+
+
+def para_series_rows(wildcards):
+    """The rows of the uniform and graded runs of a parabolic problem."""
+    return para_series(wildcards, "row")
+
+
+def para_series_npz(wildcards):
+    """The time steps of the uniform and graded runs of a parabolic problem (same order)."""
+    return para_series(wildcards, "npz")
+
+
+def vi_error_tables(wildcards):
+    """The error tables shown in Figure 7 (Example 2) or 9 (Example 3)."""
+    problems = ["ex2"] if wildcards.num == "07" else VI_PROBLEMS[1:]
+    return [path(rules.vi_errors.output.csv, problem=p) for p in problems]
+
+
+def para_error_tables(wildcards):
+    """The error tables shown in Figure 13 (Example 4) or 15 (Example 5)."""
+    example = "ex4" if wildcards.num == "13" else "ex5"
+    return [path(rules.para_errors.output.csv, problem=p) for p in PARA_PROBLEMS
+            if p.split("-")[0] == example]
 
 
 wildcard_constraints:
     family="uniform|graded",
     s=r"[0-9.]+",
-    tag=r"L[0-9]+|h[0-9.]+",
+    tag=r"L[0-9]+|h[0-9.e-]+",

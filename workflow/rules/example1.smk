@@ -10,10 +10,11 @@ rule ex1_solve:
     benchmark:
         f"{RES}/benchmarks/ex1/{{family}}_s{{s}}_{{tag}}.tsv"
     params:
-        grading=EX1["grading"],
-        quadrature=config["quadrature"],
-        config={k: config[k] for k in ("example1", "quadrature")},
+        grading=GRADING,
+        quadrature=QUADRATURE,
     threads: 2
+    conda:
+        ENV
     script:
         "../scripts/ex1_solve.py"
 
@@ -27,40 +28,53 @@ rule ex1_adaptive:
     benchmark:
         f"{RES}/benchmarks/ex1/adaptive_s{{s}}.tsv"
     params:
-        adaptive=EX1["adaptive"],
-        quadrature=config["quadrature"],
+        theta=EX1["adaptive"]["theta"],
+        start_level=EX1["adaptive"]["start_level"],
+        max_dofs=EX1["adaptive"]["max_dofs"],
+        max_steps=EX1["adaptive"]["max_steps"],
+        quadrature=QUADRATURE,
     threads: 2
+    conda:
+        ENV
     script:
         "../scripts/ex1_adaptive.py"
 
 
 rule ex1_table:
     input:
-        ex1_rows(S_EX1),
-        f"{RES}/ex1/adaptive/s{fmt(EX1['s'])}/steps.csv",
+        rows=ex1_runs(S_EX1) + [path(rules.ex1_adaptive.output.table, s=fmt(EX1["s"]))],
     output:
         table=f"{RES}/ex1/table.csv",
     log:
         f"{RES}/logs/ex1/table.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/ex1_table.tsv"
+    conda:
+        ENV
     script:
         "../scripts/collect_rows.py"
 
 
 rule fig01:
     input:
-        npz=f"{RES}/ex1/graded/s{fmt(EX1['s'])}/h{fmt(EX1['figure1_h'])}.npz",
+        npz=path(rules.ex1_solve.output.npz, family="graded", s=fmt(EX1["s"]),
+                 tag=series_tag("graded", EX1["figure1_h"])),
     output:
         png=f"{OUT}/fig01-ex1-solution-graded.png",
         pdf=f"{OUT}/fig01-ex1-solution-graded.pdf",
     log:
         f"{RES}/logs/fig01.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig01.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig01.py"
 
 
 rule fig02:
     input:
-        rows=ex1_rows([EX1["s"]]) + [f"{RES}/ex1/adaptive/s{fmt(EX1['s'])}/steps.csv"],
+        rows=ex1_runs([EX1["s"]]) + [path(rules.ex1_adaptive.output.table, s=fmt(EX1["s"]))],
     output:
         png=f"{OUT}/fig02-ex1-error.png",
         pdf=f"{OUT}/fig02-ex1-error.pdf",
@@ -68,6 +82,10 @@ rule fig02:
         s=EX1["s"],
     log:
         f"{RES}/logs/fig02.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig02.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig02.py"
 
@@ -81,13 +99,17 @@ rule ex1_extra_figures:
         errors=f"{OUT}/ex1-errors.md",
     log:
         f"{RES}/logs/ex1_extra.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/ex1_extra.tsv"
+    conda:
+        ENV
     script:
         "../scripts/ex1_extra.py"
 
 
 rule ex1_quadrature_check:
     input:
-        row=f"{RES}/ex1/{{family}}/s{{s}}/{{tag}}.csv",
+        row=rules.ex1_solve.output.row,
     output:
         row=f"{RES}/ex1-quadrature/{{family}}/s{{s}}/{{tag}}.csv",
     log:
@@ -95,20 +117,27 @@ rule ex1_quadrature_check:
     benchmark:
         f"{RES}/benchmarks/ex1-quadrature/{{family}}_s{{s}}_{{tag}}.tsv"
     params:
-        grading=EX1["grading"],
-        quadrature=config["quadrature"],
+        grading=GRADING,
+        quadrature=QUADRATURE,
     threads: 2
+    conda:
+        ENV
     script:
         "../scripts/ex1_quadrature.py"
 
 
 rule ex1_quadrature_table:
     input:
-        [f"{RES}/ex1-quadrature/{fam}/s{fmt(EX1['s'])}/{ex1_level_tags(fam)[-1]}.csv"
-         for fam in ("uniform", "graded")],
+        rows=[path(rules.ex1_quadrature_check.output.row, family=fam, s=fmt(EX1["s"]),
+                   tag=last_tag(EX1, fam))
+              for fam in ("uniform", "graded")],
     output:
         md=f"{OUT}/ex1-quadrature-check.md",
     log:
         f"{RES}/logs/ex1_quadrature_table.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/ex1_quadrature_table.tsv"
+    conda:
+        ENV
     script:
         "../scripts/ex1_quadrature_table.py"

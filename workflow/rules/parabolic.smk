@@ -1,42 +1,35 @@
 # Examples 4 and 5 (paper Section 8.2): parabolic obstacle and friction, DG(0) in time.
-PARA = config["parabolic"]
-PARA_PROBLEMS = list(PARA["examples"])
-PARA_REF_TAG = f"h{fmt(PARA['reference']['graded_h'])}"
-
-
-def para_tags(family):
-    if family == "uniform":
-        return [f"L{int(l)}" for l in PARA["uniform_levels"]]
-    return [f"h{fmt(h)}" for h in PARA["graded_h"]]
-
-
-def para_runs(problem, ext="csv"):
-    return [f"{RES}/para/{problem}/{fam}/{tag}.{ext}"
-            for fam in ("uniform", "graded") for tag in para_tags(fam)]
 
 
 rule para_solve:
     output:
-        row=f"{RES}/para/{{problem}}/{{pfamily}}/{{tag}}.csv",
-        npz=f"{RES}/para/{{problem}}/{{pfamily}}/{{tag}}.npz",
+        row=f"{RES}/para/{{problem}}/{{family}}/{{tag}}.csv",
+        npz=f"{RES}/para/{{problem}}/{{family}}/{{tag}}.npz",
     log:
-        f"{RES}/logs/para/{{problem}}_{{pfamily}}_{{tag}}.log",
+        f"{RES}/logs/para/{{problem}}_{{family}}_{{tag}}.log",
     benchmark:
-        f"{RES}/benchmarks/para/{{problem}}_{{pfamily}}_{{tag}}.tsv"
+        f"{RES}/benchmarks/para/{{problem}}_{{family}}_{{tag}}.tsv"
     wildcard_constraints:
         problem="|".join(PARA_PROBLEMS),
-        pfamily="uniform|graded|reference",
+        family="uniform|graded|reference",
     params:
-        config={k: config[k] for k in ("example1", "example2", "parabolic", "solver",
-                                       "quadrature")},
+        example=para_example,
+        data=para_data,
+        grading=GRADING,
+        T=PARA["T"],
+        tau_factor=para_tau_factor,
+        tol=SOLVER["tol"],
+        quadrature=QUADRATURE,
     threads: 2
+    conda:
+        ENV
     script:
         "../scripts/para_solve.py"
 
 
 rule para_adaptive:
     input:
-        ref=f"{RES}/para/{{problem}}/reference/{PARA_REF_TAG}.npz",
+        ref=path(rules.para_solve.output.npz, family="reference", tag=PARA_REF_TAG),
     output:
         table=f"{RES}/para/{{problem}}/adaptive/iterations.csv",
         npz=f"{RES}/para/{{problem}}/adaptive/meshes.npz",
@@ -47,19 +40,31 @@ rule para_adaptive:
     wildcard_constraints:
         problem="|".join(PARA_PROBLEMS),
     params:
-        config={k: config[k] for k in ("example1", "example2", "parabolic", "solver",
-                                       "quadrature")},
+        example=para_example,
+        data=para_data,
+        T=PARA["T"],
+        theta=PARA["adaptive"]["theta"],
+        start_level=PARA["adaptive"]["start_level"],
+        c_tau=PARA["adaptive"]["c_tau"],
+        max_spacetime_dofs=PARA["adaptive"]["max_spacetime_dofs"],
+        max_iterations=PARA["adaptive"]["max_iterations"],
+        figure_iterations=PARA["adaptive"]["figure_iterations"],
+        output_times=PARA["output_times"],
+        tol=SOLVER["tol"],
+        quadrature=QUADRATURE,
     threads: 2
+    conda:
+        ENV
     script:
         "../scripts/para_adaptive.py"
 
 
 rule para_errors:
     input:
-        adaptive=f"{RES}/para/{{problem}}/adaptive/iterations.csv",
-        rows=lambda w: para_runs(w.problem),
-        npz=lambda w: para_runs(w.problem, "npz"),
-        ref=f"{RES}/para/{{problem}}/reference/{PARA_REF_TAG}.npz",
+        adaptive=rules.para_adaptive.output.table,
+        rows=para_series_rows,
+        npz=para_series_npz,
+        ref=rules.para_adaptive.input.ref,
     output:
         csv=f"{RES}/para/{{problem}}/errors.csv",
     log:
@@ -69,16 +74,17 @@ rule para_errors:
     wildcard_constraints:
         problem="|".join(PARA_PROBLEMS),
     params:
-        quadrature=config["quadrature"],
+        quadrature=QUADRATURE,
     threads: 2
+    conda:
+        ENV
     script:
         "../scripts/para_errors.py"
 
 
 rule fig_para_error:
     input:
-        csv=lambda w: [f"{RES}/para/{p}/errors.csv" for p in PARA_PROBLEMS
-                       if p.startswith("ex4" if w.num == "13" else "ex5")],
+        csv=para_error_tables,
     output:
         png=f"{OUT}/fig{{num}}-{{slug}}.png",
         pdf=f"{OUT}/fig{{num}}-{{slug}}.pdf",
@@ -87,28 +93,36 @@ rule fig_para_error:
         slug="ex4-error|ex5-error",
     log:
         f"{RES}/logs/fig{{num}}-{{slug}}.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig{{num}}-{{slug}}.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig_para_error.py"
 
 
 rule fig10:
     input:
-        npz=f"{RES}/para/ex4-u1/adaptive/meshes.npz",
+        npz=path(rules.para_adaptive.output.npz, problem="ex4-u1"),
     output:
         png=f"{OUT}/fig10-ex4-solution.png",
         pdf=f"{OUT}/fig10-ex4-solution.pdf",
     params:
-        title=lambda w: ("Example 4, $u_0=1$: $u_{{h\\tau}}$ at T = " + f"{PARA['T']:g}"
-                         + ", adaptive ({triangles} triangles)"),
+        figure="fig10",
     log:
         f"{RES}/logs/fig10.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig10.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig04.py"
 
 
 rule fig14:
     input:
-        npz=f"{RES}/para/ex5/reference/{PARA_REF_TAG}.npz",
+        npz=path(rules.para_solve.output.npz, problem="ex5", family="reference",
+                 tag=PARA_REF_TAG),
     output:
         png=f"{OUT}/fig14-ex5-solution.png",
         pdf=f"{OUT}/fig14-ex5-solution.pdf",
@@ -118,43 +132,59 @@ rule fig14:
         F=PARA["examples"]["ex5"]["F"],
     log:
         f"{RES}/logs/fig14.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig14.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig14.py"
 
 
 rule fig11:
     input:
-        npz=f"{RES}/para/ex4-u2/adaptive/meshes.npz",
-        table=f"{RES}/para/ex4-u2/adaptive/iterations.csv",
+        npz=path(rules.para_adaptive.output.npz, problem="ex4-u2"),
+        table=path(rules.para_adaptive.output.table, problem="ex4-u2"),
     output:
         png=f"{OUT}/fig11-ex4-indicators-in-time.png",
         pdf=f"{OUT}/fig11-ex4-indicators-in-time.pdf",
     log:
         f"{RES}/logs/fig11.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig11.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig11.py"
 
 
 rule fig12:
     input:
-        npz=f"{RES}/para/ex4-u1/adaptive/meshes.npz",
+        npz=path(rules.para_adaptive.output.npz, problem="ex4-u1"),
     output:
         png=f"{OUT}/fig12-ex4-spacetime-meshes.png",
         pdf=f"{OUT}/fig12-ex4-spacetime-meshes.pdf",
     log:
         f"{RES}/logs/fig12.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig12.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig12.py"
 
 
 rule parabolic_summary:
     input:
-        csv=[f"{RES}/para/{p}/errors.csv" for p in PARA_PROBLEMS],
+        csv=expand(rules.para_errors.output.csv, problem=PARA_PROBLEMS),
     output:
         md=f"{OUT}/parabolic-runs.md",
         png=f"{OUT}/extra-parabolic-error-vs-time.png",
     log:
         f"{RES}/logs/parabolic_summary.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/parabolic_summary.tsv"
+    conda:
+        ENV
     script:
         "../scripts/parabolic_summary.py"
 
@@ -164,12 +194,21 @@ rule para_reference_check:
         md=f"{OUT}/parabolic-reference-check.md",
         csv=f"{RES}/para/reference-check.csv",
     params:
-        config={k: config[k] for k in ("example1", "parabolic", "quadrature")},
         s_list=sorted({float(e["s"]) for e in PARA["examples"].values()}),
+        T=PARA["T"],
+        grading=GRADING,
+        uniform_levels=PARA["uniform_levels"],
+        graded_h=PARA["graded_h"],
+        tau_factor=PARA["tau_factor"],
+        reference_graded_h=PARA["reference"]["graded_h"],
+        reference_tau_factor=PARA["reference"]["tau_factor"],
+        quadrature=QUADRATURE,
     log:
         f"{RES}/logs/para/reference_check.log",
     benchmark:
         f"{RES}/benchmarks/para/reference_check.tsv"
     threads: 2
+    conda:
+        ENV
     script:
         "../scripts/para_reference_check.py"

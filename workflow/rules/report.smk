@@ -4,16 +4,18 @@
 rule rates:
     input:
         ex1=rules.ex1_table.output.table,
-        vi=[f"{RES}/vi/{p}/errors.csv" for p in ELLIPTIC_VI],
-        para=[f"{RES}/para/{p}/errors.csv" for p in PARA_PROBLEMS],
+        vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
+        para=expand(rules.para_errors.output.csv, problem=PARA_PROBLEMS),
     output:
         csv=f"{OUT}/rates.csv",
         md=f"{OUT}/rates.md",
         tex=f"{OUT}/rates.tex",
-    params:
-        paper_s={1: EX1["s"]},
     log:
         f"{RES}/logs/rates.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/rates.tsv"
+    conda:
+        ENV
     script:
         "../scripts/rates.py"
 
@@ -23,6 +25,7 @@ rule benchmark_assembly:
         csv=f"{OUT}/benchmark-assembly.csv",
         md=f"{OUT}/benchmark-assembly.md",
     params:
+        script=str(Path(workflow.basedir) / "benchmarks" / "bench_assembly.py"),
         levels=config["benchmark"]["levels"],
         s=config["benchmark"]["s"],
     log:
@@ -30,8 +33,10 @@ rule benchmark_assembly:
     benchmark:
         f"{RES}/benchmarks/benchmark_assembly.tsv"
     threads: 2
+    conda:
+        ENV
     shell:
-        "NUMBA_NUM_THREADS={threads} python {workflow.basedir}/benchmarks/bench_assembly.py "
+        "NUMBA_NUM_THREADS={threads} python {params.script} "
         "--levels {params.levels} --s {params.s} --csv {output.csv} --md {output.md} > {log} 2>&1"
 
 
@@ -40,11 +45,15 @@ rule bad_inputs:
         md=f"{OUT}/bad-inputs.md",
     log:
         f"{RES}/logs/bad_inputs.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/bad_inputs.tsv"
+    conda:
+        ENV
     script:
         "../scripts/bad_inputs.py"
 
 
-# Not in `rule all`: run with `snakemake --cores 2 stability` (issue 6).
+# Not in `rule all`: run with `snakemake --cores 2 stability`.
 rule stability:
     output:
         md=f"{OUT}/stability.md",
@@ -55,11 +64,13 @@ rule stability:
     benchmark:
         f"{RES}/benchmarks/stability.tsv"
     threads: 2
+    conda:
+        ENV
     script:
         "../scripts/stability.py"
 
 
-# Not in `rule all`: `snakemake --cores 2 stability_vi` (issue 6, obstacle/friction part).
+# Not in `rule all`: `snakemake --cores 2 stability_vi` (obstacle/friction part).
 rule stability_vi:
     output:
         md=f"{OUT}/stability-vi.md",
@@ -69,5 +80,7 @@ rule stability_vi:
     benchmark:
         f"{RES}/benchmarks/stability_vi.tsv"
     threads: 2
+    conda:
+        ENV
     script:
         "../scripts/stability_vi.py"

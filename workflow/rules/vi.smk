@@ -1,21 +1,5 @@
 # Examples 2 and 3 (paper Section 8.1) and the thin demonstrations: mixed form,
 # PDAS solution cross-checked by Uzawa (Algorithm A) on every mesh.
-EX2 = config["example2"]
-EX3 = config["example3"]
-THIN = config["thin"]
-VI_PROBLEMS = ["ex2"] + [f"ex3-{v}" for v in EX3["variants"]]
-
-
-def vi_tags(problem, family):
-    c = EX2 if problem == "ex2" else EX3
-    if family == "uniform":
-        return [f"L{int(l)}" for l in c["uniform_levels"]]
-    return [f"h{fmt(h)}" for h in c["graded_h"]]
-
-
-def vi_rows(problem):
-    return [f"{RES}/vi/{problem}/{fam}/{tag}.csv"
-            for fam in ("uniform", "graded") for tag in vi_tags(problem, fam)]
 
 
 rule vi_solve:
@@ -30,31 +14,47 @@ rule vi_solve:
         problem=r"ex2|ex3-\w+|thin-obstacle|thin-friction",
         family="uniform|graded|demo",
     params:
-        config={k: config[k] for k in ("example1", "example2", "example3", "thin", "solver",
-                                       "quadrature")},
+        example=vi_example,
+        data=vi_data,
+        grading=GRADING,
+        tol=SOLVER["tol"],
+        maxiter=SOLVER["maxiter"],
+        quadrature=QUADRATURE,
     threads: 2
+    conda:
+        ENV
     script:
         "../scripts/vi_solve.py"
 
 
 rule vi_table:
     input:
-        lambda w: vi_rows(w.problem),
+        rows=vi_series_rows,
     output:
         table=f"{RES}/vi/{{problem}}/table.csv",
     log:
         f"{RES}/logs/vi/{{problem}}_table.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/vi_{{problem}}_table.tsv"
+    wildcard_constraints:
+        problem=r"ex2|ex3-\w+",
+    conda:
+        ENV
     script:
         "../scripts/collect_rows.py"
 
 
 rule vi_runs_md:
     input:
-        [f"{RES}/vi/{p}/table.csv" for p in VI_PROBLEMS],
+        tables=expand(rules.vi_table.output.table, problem=VI_PROBLEMS),
     output:
         md=f"{OUT}/vi-runs.md",
     log:
         f"{RES}/logs/vi_runs_md.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/vi_runs_md.tsv"
+    conda:
+        ENV
     script:
         "../scripts/vi_runs_md.py"
 
@@ -64,30 +64,41 @@ rule fig03:
         png=f"{OUT}/fig03-obstacle.png",
         pdf=f"{OUT}/fig03-obstacle.pdf",
     params:
-        obstacle=EX2["obstacle"],
+        height=EX2["obstacle"]["height"],
+        slope=EX2["obstacle"]["slope"],
     log:
         f"{RES}/logs/fig03.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig03.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig03.py"
 
 
 rule fig04:
     input:
-        npz=f"{RES}/vi/ex2/uniform/L{EX2['figure4_level']}.npz",
+        npz=path(rules.vi_solve.output.npz, problem="ex2", family="uniform",
+                 tag=series_tag("uniform", EX2["figure4_level"])),
     output:
         png=f"{OUT}/fig04-ex2-solution-uniform.png",
         pdf=f"{OUT}/fig04-ex2-solution-uniform.pdf",
     params:
-        obstacle=EX2["obstacle"],
+        figure="fig04",
     log:
         f"{RES}/logs/fig04.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig04.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig04.py"
 
 
 rule fig08:
     input:
-        npz=f"{RES}/vi/ex3-{EX3['figure8_variant']}/uniform/L{EX3['figure8_level']}.npz",
+        npz=path(rules.vi_solve.output.npz, problem=f"ex3-{EX3['figure8_variant']}",
+                 family="uniform", tag=series_tag("uniform", EX3["figure8_level"])),
     output:
         png=f"{OUT}/fig08-ex3-solution-multiplier.png",
         pdf=f"{OUT}/fig08-ex3-solution-multiplier.pdf",
@@ -95,27 +106,33 @@ rule fig08:
         title=f"Example 3 ({EX3['figure8_variant']} data)",
     log:
         f"{RES}/logs/fig08.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig08.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig08.py"
 
 
 rule thin_demo:
     input:
-        npz=f"{RES}/vi/thin-{{kind}}/demo/L{THIN['level']}.npz",
+        npz=path(rules.vi_solve.output.npz, problem="thin-{kind}", family="demo",
+                 tag=series_tag("uniform", THIN["level"])),
     output:
         png=f"{OUT}/extra-thin-{{kind}}.png",
     wildcard_constraints:
         kind="obstacle|friction",
     log:
         f"{RES}/logs/thin_demo_{{kind}}.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/thin_demo_{{kind}}.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig_thin.py"
 
 
 # ---------------------------------------------------------------- adaptive series and errors
-ELLIPTIC_VI = ["ex2"] + [f"ex3-{v}" for v in EX3["variants"]]
-
-
 rule vi_adaptive:
     output:
         table=f"{RES}/vi/{{problem}}/adaptive/steps.csv",
@@ -127,76 +144,101 @@ rule vi_adaptive:
     wildcard_constraints:
         problem=r"ex2|ex3-\w+",
     params:
-        config={k: config[k] for k in ("example1", "example2", "example3", "vi_adaptive",
-                                       "solver", "quadrature")},
+        example=vi_example,
+        data=vi_data,
+        theta=config["vi_adaptive"]["theta"],
+        start_level=config["vi_adaptive"]["start_level"],
+        max_dofs=config["vi_adaptive"]["max_dofs"],
+        max_steps=config["vi_adaptive"]["max_steps"],
+        figure_steps=config["vi_adaptive"]["figure_steps"],
+        tol=SOLVER["tol"],
+        quadrature=QUADRATURE,
     threads: 2
+    conda:
+        ENV
     script:
         "../scripts/vi_adaptive.py"
 
 
 rule vi_errors:
     input:
-        series=f"{RES}/vi/{{problem}}/table.csv",
-        adaptive=f"{RES}/vi/{{problem}}/adaptive/steps.csv",
+        series=rules.vi_table.output.table,
+        adaptive=rules.vi_adaptive.output.table,
     output:
         csv=f"{RES}/vi/{{problem}}/errors.csv",
         json=f"{RES}/vi/{{problem}}/reference.json",
     log:
         f"{RES}/logs/vi/{{problem}}_errors.log",
+    benchmark:
+        f"{RES}/benchmarks/vi/{{problem}}_errors.tsv"
     wildcard_constraints:
         problem=r"ex2|ex3-\w+",
     params:
-        config={k: config[k] for k in ("example3", "reference")},
+        example=vi_example,
+        data=vi_data,
+        reference_family=config["reference"]["family"],
+    conda:
+        ENV
     script:
         "../scripts/vi_errors.py"
 
 
 rule reference_table:
     input:
-        refs=[f"{RES}/vi/{p}/reference.json" for p in ELLIPTIC_VI],
-        errors=[f"{RES}/vi/{p}/errors.csv" for p in ELLIPTIC_VI],
-        ex1=f"{RES}/ex1/table.csv",
+        refs=expand(rules.vi_errors.output.json, problem=VI_PROBLEMS),
+        errors=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
+        ex1=rules.ex1_table.output.table,
     output:
         md=f"{OUT}/elliptic-errors.md",
     params:
         family=config["reference"]["family"],
     log:
         f"{RES}/logs/reference_table.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/reference_table.tsv"
+    conda:
+        ENV
     script:
         "../scripts/reference_table.py"
 
 
 rule fig05:
     input:
-        npz=f"{RES}/vi/ex2/adaptive/meshes.npz",
+        npz=path(rules.vi_adaptive.output.npz, problem="ex2"),
     output:
         png=f"{OUT}/fig05-ex2-solution-adaptive.png",
         pdf=f"{OUT}/fig05-ex2-solution-adaptive.pdf",
     params:
-        title=lambda w: "Example 2, adaptive: $u_h$ ({triangles} triangles)",
+        figure="fig05",
     log:
         f"{RES}/logs/fig05.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig05.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig04.py"
 
 
 rule fig06:
     input:
-        npz=f"{RES}/vi/ex2/adaptive/meshes.npz",
+        npz=path(rules.vi_adaptive.output.npz, problem="ex2"),
     output:
         png=f"{OUT}/fig06-ex2-adaptive-meshes.png",
         pdf=f"{OUT}/fig06-ex2-adaptive-meshes.pdf",
     log:
         f"{RES}/logs/fig06.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig06.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig06.py"
 
 
 rule fig_vi_error:
     input:
-        csv=lambda w: [f"{RES}/vi/{p}/errors.csv"
-                       for p in (["ex2"] if w.num == "07" else
-                                 [f"ex3-{v}" for v in EX3["variants"]])],
+        csv=vi_error_tables,
     output:
         png=f"{OUT}/fig{{num}}-{{slug}}.png",
         pdf=f"{OUT}/fig{{num}}-{{slug}}.pdf",
@@ -205,14 +247,18 @@ rule fig_vi_error:
         slug="ex2-error|ex3-error",
     log:
         f"{RES}/logs/fig{{num}}-{{slug}}.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/fig{{num}}-{{slug}}.tsv"
+    conda:
+        ENV
     script:
         "../scripts/fig_vi_error.py"
 
 
 rule elliptic_error_vs_time:
     input:
-        ex1=f"{RES}/ex1/table.csv",
-        vi=[f"{RES}/vi/{p}/errors.csv" for p in ELLIPTIC_VI],
+        ex1=rules.ex1_table.output.table,
+        vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
     output:
         png=f"{OUT}/extra-elliptic-error-vs-time.png",
         md=f"{OUT}/elliptic-error-vs-time.md",
@@ -220,5 +266,9 @@ rule elliptic_error_vs_time:
         s=EX1["s"],
     log:
         f"{RES}/logs/elliptic_error_vs_time.log",
+    benchmark:
+        f"{RES}/benchmarks/figures/elliptic_error_vs_time.tsv"
+    conda:
+        ENV
     script:
         "../scripts/elliptic_time.py"

@@ -9,9 +9,10 @@ import numpy as np
 import yaml
 
 import fracfem as ff
-from fracfem import adaptive, examples, parabolic, vi
+from fracfem import adaptive, examples, vi
 from fracfem.meshes import mesh_from_arrays
 from fracfem.solvers import ConvergenceError
+from fracfem_workflow.io import atomic_path
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -46,7 +47,7 @@ def _uzawa_two_steps():
 def _steps(**kw):
     """Run a tiny unconstrained DG(0) problem with the given time arguments."""
     disc = ff.discretise(ff.disk_uniform(1), 0.5, 0.0)
-    return list(parabolic.time_steps(disc, 1.0, **kw))
+    return list(ff.time_steps(disc, 1.0, **kw))
 
 
 # (parameter, what was passed, call)
@@ -58,7 +59,7 @@ CASES = [
     ("T", "final time T = inf", lambda: _steps(T=float("inf"), tau=0.1)),
     ("times", "time grid not increasing [0, 0.5, 0.4]",
      lambda: _steps(times=[0.0, 0.5, 0.4])),
-    ("u0", "initial value u0 = NaN", lambda: list(parabolic.time_steps(
+    ("u0", "initial value u0 = NaN", lambda: list(ff.time_steps(
         ff.discretise(ff.disk_uniform(1), 0.5, 0.0), float("nan"), T=1.0, tau=0.5))),
     ("θ", "θ = 1 in Algorithm C", lambda: ff.algorithm_c(
         lambda c: None, ff.disk_uniform(1), 1.0, T=1.0, theta=1.0, iterations=1)),
@@ -124,7 +125,6 @@ def to_markdown(rows):
 
 
 def main(md):
-    from fracfem.io import atomic_path
     rows = run_cases()
     with atomic_path(md) as tmp:
         tmp.write_text(to_markdown(rows))

@@ -2,20 +2,21 @@
 import logging
 import time
 
-import numba
 import numpy as np
 import pandas as pd
 
 import fracfem as ff
 from fracfem import adaptive
-from fracfem.io import peak_memory_mb, save_arrays, with_provenance, write_table
+from fracfem_workflow.io import peak_memory_mb, save_arrays, with_provenance, write_table
+from fracfem_workflow.runs import parameter_columns, start
 
 
-def main(s, theta, start_level, max_dofs, max_steps, quadrature, table_path, npz_path,
-         threads):
-    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+def main(s, theta, start_level, max_dofs, max_steps, quadrature, table, npz, log=None,
+         threads=None):
+    start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
-    exact = ff.disk_energy(s)
+    example = ff.Example1(s)
+    exact = ff.disk_energy(example.s)
     rows, t_start = [], time.perf_counter()
 
     def record(rec):
@@ -23,7 +24,7 @@ def main(s, theta, start_level, max_dofs, max_steps, quadrature, table_path, npz
         if not err2 > 0:
             raise RuntimeError(f"Galerkin bound violated at step {rec.step}: (f,u_h) >= (f,u)")
         rows.append({
-            "example": 1, "family": "adaptive", "s": s, "tag": f"step{rec.step}",
+            "example": 1, "family": "adaptive", "s": example.s, "tag": f"step{rec.step}",
             "dofs": rec.dofs, "triangles": rec.n_triangles, "h_max": rec.h_max,
             "h_min": rec.h_min, "fu_h": rec.load_dot_u, "fu_exact": exact,
             "error": np.sqrt(err2), "eta": rec.eta, "efficiency": rec.eta / np.sqrt(err2),
@@ -37,18 +38,20 @@ def main(s, theta, start_level, max_dofs, max_steps, quadrature, table_path, npz
                      rows[-1]["error"], rec.eta)
         return rec.dofs >= max_dofs
 
-    recs = adaptive.algorithm_b(lambda m: ff.discretise(m, s, 1.0, quadrature=quad),
+    recs = adaptive.algorithm_b(lambda mesh: example.problem(mesh, quad),
                                 ff.disk_uniform(start_level), theta=theta, steps=max_steps,
-                                f=1.0, callback=record)
+                                marking="maximum", f=example.f, callback=record)
     last = recs[-1]
-    save_arrays(npz_path, p=last.mesh.p, t=last.mesh.t, u=last.u, s=s)
-    df = pd.DataFrame(rows)
-    write_table(with_provenance(df), table_path)
+    save_arrays(npz, p=last.mesh.p, t=last.mesh.t, u=last.u, s=example.s)
+    df = pd.DataFrame(rows).assign(**parameter_columns(
+        quadrature=quad, theta=theta, marking="maximum", start_level=start_level,
+        max_dofs=max_dofs))
+    write_table(with_provenance(df), table)
 
 
 if __name__ == "__main__":
-    logging.basicConfig(filename=snakemake.log[0], level=logging.INFO)  # noqa: F821
-    a = snakemake.params.adaptive  # noqa: F821
-    main(float(snakemake.wildcards.s), a["theta"], a["start_level"], a["max_dofs"],  # noqa: F821
-         a["max_steps"], snakemake.params.quadrature, snakemake.output.table,  # noqa: F821
-         snakemake.output.npz, snakemake.threads)  # noqa: F821
+    main(float(snakemake.wildcards.s), snakemake.params.theta,  # noqa: F821
+         snakemake.params.start_level, snakemake.params.max_dofs,  # noqa: F821
+         snakemake.params.max_steps, snakemake.params.quadrature,  # noqa: F821
+         snakemake.output.table, snakemake.output.npz, snakemake.log[0],  # noqa: F821
+         snakemake.threads)  # noqa: F821

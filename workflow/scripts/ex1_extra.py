@@ -1,14 +1,9 @@
 """Extra figures of Example 1: error vs wall time; error vs DOFs for every s."""
-import sys
-from pathlib import Path
-
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import MARKERS, plt, save  # noqa: E402
-
-from fracfem.io import atomic_path  # noqa: E402
-from fracfem.report import fit_rate  # noqa: E402
+from fracfem_workflow.io import atomic_path
+from fracfem_workflow.plotstyle import MARKERS, plt, save
+from fracfem_workflow.report import fit_rate
 
 
 def main(table, time_png, orders_png, errors_md):

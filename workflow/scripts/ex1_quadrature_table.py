@@ -1,14 +1,17 @@
 """Collect the quadrature checks into a Markdown table."""
 import pandas as pd
 
-from fracfem.io import atomic_path
+from fracfem_workflow.io import atomic_path
+
+COLUMNS = ["family", "s", "tag", "dofs", "fu_h", "fu_h_raised", "change", "error_squared",
+           "change_over_error_squared", "t_assembly_raised"]
 
 
-def main(inputs, md):
-    df = pd.concat([pd.read_csv(f) for f in inputs], ignore_index=True)
+def main(rows, md):
+    df = pd.concat([pd.read_csv(f) for f in rows], ignore_index=True)
     with atomic_path(md) as tmp:
-        tmp.write_text(df.to_markdown(index=False, floatfmt=".6g") + "\n")
+        tmp.write_text(df[COLUMNS].to_markdown(index=False, floatfmt=".6g") + "\n")
 
 
 if __name__ == "__main__":
-    main(list(snakemake.input), snakemake.output.md)  # noqa: F821
+    main(list(snakemake.input.rows), snakemake.output.md)  # noqa: F821

@@ -1,11 +1,7 @@
 """Figure 1: Example 1 solution on a 2-graded mesh, as a surface."""
-import sys
-from pathlib import Path
-
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import plt, save  # noqa: E402
+from fracfem_workflow.plotstyle import plt, save
 
 
 def main(npz, png, pdf):

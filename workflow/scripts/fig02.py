@@ -1,13 +1,8 @@
 """Figure 2: Example 1 energy error vs DOFs, uniform and 2-graded, fitted rates."""
-import sys
-from pathlib import Path
-
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import MARKERS, plt, save  # noqa: E402
-
-from fracfem.report import PAPER_RATES, fit_rate  # noqa: E402
+from fracfem_workflow.plotstyle import MARKERS, plt, save
+from fracfem_workflow.report import PAPER_RATES, fit_rate
 
 
 def main(rows, s, png, pdf):

@@ -1,16 +1,18 @@
 """Figures 4, 5 and 10: an obstacle solution (Example 2 uniform / adaptive, Example 4 at
 T on its last adaptive mesh) with λ_H and the contact set."""
-import sys
-from pathlib import Path
-
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import multiplier_panel, save, solution_figure  # noqa: E402
+from fracfem_workflow.plotstyle import multiplier_panel, save, solution_figure
+
+TITLES = {
+    "fig04": "Example 2: $u_h$ ({triangles} triangles)",
+    "fig05": "Example 2, adaptive: $u_h$ ({triangles} triangles)",
+    "fig10": "Example 4, $u_0=1$: $u_{{h\\tau}}$ at T = {T:g}, adaptive ({triangles} triangles)",
+}
 
 
-def main(npz, png, pdf, title="Example 2: $u_h$ ({triangles} triangles)"):
-    d, fig, ax2 = solution_figure(npz, title)
+def main(npz, figure, png, pdf):
+    d, fig, ax2 = solution_figure(npz, TITLES[figure])
     multiplier_panel(fig, ax2, d, "magma")
     ax2.set_title(rf"$\lambda_H$ (contact where $\lambda_H<0$: {int(np.sum(d['lam'] < 0))} "
                   "elements)")
@@ -18,6 +20,5 @@ def main(npz, png, pdf, title="Example 2: $u_h$ ({triangles} triangles)"):
 
 
 if __name__ == "__main__":
-    title = snakemake.params.get("title")  # noqa: F821  (Figures 5, 10 reuse this script)
-    main(snakemake.input.npz, snakemake.output.png, snakemake.output.pdf,  # noqa: F821
-         *([title] if title else []))
+    main(snakemake.input.npz, snakemake.params.figure, snakemake.output.png,  # noqa: F821
+         snakemake.output.pdf)  # noqa: F821

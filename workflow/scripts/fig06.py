@@ -1,11 +1,7 @@
 """Figure 6: Example 2 adaptive meshes T_h after several refinements, coarse indicators."""
-import sys
-from pathlib import Path
-
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import plt, save  # noqa: E402
+from fracfem_workflow.plotstyle import plt, save
 
 
 def main(npz, png, pdf):

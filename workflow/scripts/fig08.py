@@ -1,9 +1,5 @@
 """Figure 8: Example 3, u_h (left) and λ_H (right)."""
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import multiplier_panel, save, solution_figure  # noqa: E402
+from fracfem_workflow.plotstyle import multiplier_panel, save, solution_figure
 
 
 def main(npz, title, png, pdf):

@@ -1,12 +1,8 @@
 """Figure 11: Example 4 (ũ₀ = 2), indicators over time for several Algorithm C passes."""
-import sys
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import plt, save  # noqa: E402
+from fracfem_workflow.plotstyle import plt, save
 
 
 def main(npz, table, png, pdf):

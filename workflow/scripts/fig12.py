@@ -1,11 +1,7 @@
 """Figure 12: Example 4 (u₀ = 1), slices of the space-time adaptive meshes."""
-import sys
-from pathlib import Path
-
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import plt, save  # noqa: E402
+from fracfem_workflow.plotstyle import plt, save
 
 
 def slices(d, key):

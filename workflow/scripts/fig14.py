@@ -1,14 +1,9 @@
 """Figure 14: Example 5, u_hτ and λ_H at several times; where λ_H switches sign."""
-import sys
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import plt, save  # noqa: E402
-
-from fracfem.io import atomic_path  # noqa: E402
+from fracfem_workflow.io import atomic_path
+from fracfem_workflow.plotstyle import plt, save
 
 
 def slip_regions(pc, tc, lam, F, rtol=1e-6):
@@ -25,8 +20,6 @@ def slip_regions(pc, tc, lam, F, rtol=1e-6):
 def main(npz, times_shown, F, png, pdf, md):
     d = np.load(npz)
     p, t, U, LAM, times = d["p"], d["t"], d["U"], d["LAM"], d["times"]
-    if F is None:
-        raise ValueError("fig14 needs params.F, the friction bound of Example 5")
     pc, tc = d["pc"], d["tc"]
     fig = plt.figure(figsize=(3.3 * len(times_shown), 6.4))
     for j, ts in enumerate(times_shown):
@@ -58,6 +51,5 @@ def main(npz, times_shown, F, png, pdf, md):
 
 
 if __name__ == "__main__":
-    main(snakemake.input.npz, snakemake.params.times, snakemake.params.get("F"),  # noqa: F821
-         snakemake.output.png,  # noqa: F821
-         snakemake.output.pdf, snakemake.output.md)  # noqa: F821
+    main(snakemake.input.npz, snakemake.params.times, snakemake.params.F,  # noqa: F821
+         snakemake.output.png, snakemake.output.pdf, snakemake.output.md)  # noqa: F821

@@ -1,13 +1,8 @@
 """Figures 13 and 15: L²(0,T; H^s) error vs space-time DOFs (Examples 4 and 5)."""
-import sys
-from pathlib import Path
-
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import MARKERS, plt, save  # noqa: E402
-
-from fracfem.report import PAPER_RATES, fit_rate  # noqa: E402
+from fracfem_workflow.plotstyle import MARKERS, plt, save
+from fracfem_workflow.report import PAPER_RATES, fit_rate
 
 
 def main(csvs, png, pdf):

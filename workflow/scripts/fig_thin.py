@@ -1,11 +1,7 @@
 """Thin obstacle / thin friction demonstration: u_h and λ_H along Γ̃."""
-import sys
-from pathlib import Path
-
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import save, solution_figure  # noqa: E402
+from fracfem_workflow.plotstyle import save, solution_figure
 
 
 def main(npz, png):

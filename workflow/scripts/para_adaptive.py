@@ -2,40 +2,41 @@
 import logging
 import time
 
-import numba
 import numpy as np
 import pandas as pd
-from para_errors import pieces
-from para_solve import para_problem
 
 import fracfem as ff
-from fracfem.io import peak_memory_mb, save_arrays, with_provenance, write_table
 from fracfem.transfer import space_time_distance
+from fracfem_workflow.io import peak_memory_mb, save_arrays, with_provenance, write_table
+from fracfem_workflow.runs import parabolic_pieces, parameter_columns, start
 
 
-def main(problem, cfg, quadrature, ref_npz, table_path, npz_path, threads):
-    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
-    pc = cfg["parabolic"]
-    a = pc["adaptive"]
+def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
+         max_iterations, figure_iterations, output_times, tol, quadrature, ref, table, npz,
+         log=None, threads=None):
+    """problem: the run's name; example, data: fracfem.example(example, **data); ref: the
+    reference run the errors are measured against."""
+    start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
-    _, u0 = para_problem(problem, None, cfg, quad, assemble=False)
-    ref, d = pieces(ref_npz)
+    ex = ff.example(example, **data)
+    obstacle = example == "ex4"
+    ref_pieces, d = parabolic_pieces(ref)
     s = float(d["s"])
     t0 = time.perf_counter()
-    ref_disc = ff.discretise(ref[0][2], s, 0.0, quadrature=quad)
+    ref_disc = ff.discretise(ref_pieces[0][2], s, 0.0, quadrature=quad)
     t_ref = time.perf_counter() - t0
     rows, arrays, t_start = [], {}, time.perf_counter()
-    keep = {int(k) for k in a["figure_iterations"]}
+    keep = {int(k) for k in figure_iterations}
     t_eval = [0.0]          # time spent measuring errors, not part of the method's cost
 
     def record(rec):
         t0 = time.perf_counter()
-        err = space_time_distance(rec.pieces, ref, ref_disc.A, ref_disc.free)
+        err = space_time_distance(rec.pieces, ref_pieces, ref_disc.A, ref_disc.free)
         t_eval[0] += time.perf_counter() - t0
         rec.pieces = None                          # the steps are not needed any more
         rows.append({
-            "problem": problem, "example": 4 if problem.startswith("ex4") else 5,
-            "variant": problem[4:] if problem.startswith("ex4") else "",
+            "problem": problem, "example": int(example[2:]),
+            "variant": problem[4:] if obstacle else "",
             "family": "adaptive", "tag": f"it{rec.iteration}", "s": s,
             "dofs": max(sl.n_free for sl in rec.slabs), "slabs": len(rec.slabs),
             "steps": int(sum(sl.n_steps for sl in rec.slabs)),
@@ -58,30 +59,37 @@ def main(problem, cfg, quadrature, ref_npz, table_path, npz_path, threads):
                 m = snap["mesh"]
                 arrays.update({f"p_it{rec.iteration}_{j}": m.p, f"t_it{rec.iteration}_{j}": m.t,
                                f"time_it{rec.iteration}_{j}": t_out})
-        return rec.dofs >= a["max_spacetime_dofs"]
+        return rec.dofs >= max_spacetime_dofs
 
     recs = ff.algorithm_c(
-        lambda c: para_problem(problem, c, cfg, quad)[0], ff.disk_uniform(a["start_level"]),
-        u0, T=pc["T"], theta=a["theta"], iterations=a["max_iterations"], c_tau=a["c_tau"],
-        output_times=pc["output_times"], callback=record, keep_steps=True,
-        solver_options={"tol": cfg["solver"]["tol"]})
+        lambda coarse: ex.problem(coarse, quad), ff.disk_uniform(start_level),
+        ex.initial_value, T=T, theta=theta, iterations=max_iterations, c_tau=c_tau,
+        marking="maximum", solver="pdas", output_times=output_times, callback=record,
+        keep_steps=True, solver_options={"tol": tol})
     last = recs[-1]
     for j, (t_out, snap) in enumerate(sorted(last.outputs.items())):
         arrays.update({f"p_last_{j}": snap["mesh"].p, f"t_last_{j}": snap["mesh"].t,
                        f"time_last_{j}": t_out})
     fin = last.final
     arrays.update(p=fin["mesh"].p, t=fin["mesh"].t, pc=fin["coarse"].p, tc=fin["coarse"].t,
-                  u=fin["u"], lam=fin["lam"], s=s, T=pc["T"],
+                  u=fin["u"], lam=fin["lam"], s=s, T=T,
                   iterations=np.array([r.iteration for r in recs]),
                   figure_iterations=np.array(sorted(keep & {r.iteration for r in recs})))
-    save_arrays(npz_path, **arrays)
+    save_arrays(npz, **arrays)
     df = pd.DataFrame(rows)
     df["t_reference_assembly"] = t_ref
-    write_table(with_provenance(df), table_path)
+    df = df.assign(**parameter_columns(
+        quadrature=quad, T=T, theta=theta, marking="maximum", c_tau=c_tau,
+        start_level=start_level, solver="pdas", tol=tol))
+    write_table(with_provenance(df), table)
 
 
 if __name__ == "__main__":
-    logging.basicConfig(filename=snakemake.log[0], level=logging.INFO)  # noqa: F821
-    main(snakemake.wildcards.problem, snakemake.params.config,  # noqa: F821
-         snakemake.params.config["quadrature"], snakemake.input.ref,  # noqa: F821
-         snakemake.output.table, snakemake.output.npz, snakemake.threads)  # noqa: F821
+    main(snakemake.wildcards.problem, snakemake.params.example,  # noqa: F821
+         snakemake.params.data, snakemake.params.T, snakemake.params.theta,  # noqa: F821
+         snakemake.params.start_level, snakemake.params.c_tau,  # noqa: F821
+         snakemake.params.max_spacetime_dofs, snakemake.params.max_iterations,  # noqa: F821
+         snakemake.params.figure_iterations, snakemake.params.output_times,  # noqa: F821
+         snakemake.params.tol, snakemake.params.quadrature, snakemake.input.ref,  # noqa: F821
+         snakemake.output.table, snakemake.output.npz, snakemake.log[0],  # noqa: F821
+         snakemake.threads)  # noqa: F821

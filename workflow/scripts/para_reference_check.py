@@ -4,44 +4,45 @@ the exact L²(0,T; H^s) error next to the error measured against a reference run
 exactly like the examples' reference (fracfem.transfer.space_time_distance)."""
 import logging
 
-import numba
 import pandas as pd
 
 import fracfem as ff
-from fracfem import exact, parabolic
-from fracfem.io import atomic_path, with_provenance, write_table
+from fracfem import exact, vi
 from fracfem.meshes import mesh_size
-from fracfem.report import fit_rate
 from fracfem.transfer import space_time_distance
+from fracfem_workflow.io import atomic_path, with_provenance, write_table
+from fracfem_workflow.report import fit_rate
+from fracfem_workflow.runs import parameter_columns, start
 
 
-def run(mesh, s, T, factor, quad):
+def run(mesh, s, T, tau_factor, quad):
     """Unconstrained DG(0) run of the manufactured solution with τ ≤ factor·h_max^{2s}."""
     disc = ff.discretise(mesh, s, 0.0, quadrature=quad)
-    steps = parabolic.solve_parabolic(disc, lambda x: exact.bubble(x, s), T=T,
-                                      tau=factor * mesh_size(mesh) ** (2 * s),
-                                      f=lambda x, t: exact.heat_source(x, t, s))
+    steps = ff.solve_parabolic(disc, lambda x: exact.bubble(x, s), T=T,
+                               tau=ff.time_step(mesh_size(mesh), s, tau_factor),
+                               f=lambda x, t: exact.heat_source(x, t, s))
     return disc, steps
 
 
-def check(cfg, quad, s):
-    """(runs table, summary rows, text) for one order s."""
-    pc = cfg["parabolic"]
-    grading, T = cfg["example1"]["grading"], pc["T"]
-    ref_mesh = ff.refine_disk(ff.disk_graded(pc["reference"]["graded_h"], grading))
-    ref_disc, ref_steps = run(ref_mesh, s, T, pc["reference"]["tau_factor"], quad)
+def fine_mesh(tag, grading):
+    """T_h of a series member of Examples 4/5: the refinement of its multiplier mesh."""
+    return vi.fine_mesh(ff.multiplier_mesh(tag, grading))
+
+
+def check(s, T, grading, series, tau_factor, reference_tag, reference_tau_factor, quad):
+    """(runs table, summary rows, text) for one order s; series: [(family, tag)]."""
+    ref_mesh = fine_mesh(reference_tag, grading)
+    ref_disc, ref_steps = run(ref_mesh, s, T, reference_tau_factor, quad)
     ref = [(st.t - st.tau, st.t, ref_mesh, st.u) for st in ref_steps[1:]]
-    ref_exact = exact.heat_error(ref_steps, ref_disc, s)
+    ref_exact = ff.heat_error(ref_steps, ref_disc, s)
     rows = []
-    series = [("uniform", f"L{l}", ff.disk_uniform(int(l))) for l in pc["uniform_levels"]]
-    series += [("graded", f"h{h:g}", ff.refine_disk(ff.disk_graded(h, grading)))
-               for h in pc["graded_h"]]
-    for fam, tag, mesh in series:
-        disc, steps = run(mesh, s, T, pc["tau_factor"][fam], quad)
+    for fam, tag in series:
+        mesh = fine_mesh(tag, grading)
+        disc, steps = run(mesh, s, T, tau_factor[fam], quad)
         pieces = [(st.t - st.tau, st.t, mesh, st.u) for st in steps[1:]]
         rows.append({"s": s, "family": fam, "tag": tag, "dofs": len(disc.free),
                      "spacetime_dofs": len(disc.free) * (len(steps) - 1),
-                     "exact error": exact.heat_error(steps, disc, s),
+                     "exact error": ff.heat_error(steps, disc, s),
                      "error vs reference": space_time_distance(pieces, ref, ref_disc.A,
                                                                ref_disc.free)})
         logging.info("%s", rows[-1])
@@ -59,18 +60,29 @@ def check(cfg, quad, s):
     return df, summary, note
 
 
-def main(cfg, quadrature, s_list, md, csv, threads):
-    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+def main(s_list, T, grading, uniform_levels, graded_h, tau_factor, reference_graded_h,
+         reference_tau_factor, quadrature, md, csv, log=None, threads=None):
+    """tau_factor: {'uniform': …, 'graded': …}; the reference run is the graded mesh of
+    h = reference_graded_h with τ = reference_tau_factor · h_max^{2s}."""
+    start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
+    series = ([("uniform", ff.series_tag("uniform", lv)) for lv in uniform_levels]
+              + [("graded", ff.series_tag("graded", h)) for h in graded_h])
+    reference_tag = ff.series_tag("graded", reference_graded_h)
     frames, summary, notes = [], [], []
     for s in s_list:
-        df, summ, note = check(cfg, quad, float(s))
+        df, summ, note = check(float(s), T, grading, series, tau_factor, reference_tag,
+                               reference_tau_factor, quad)
         frames.append(df)
         summary += summ
         notes.append(note)
     df = pd.concat(frames, ignore_index=True)
-    write_table(with_provenance(df), csv)
-    text = (f"Manufactured solution e^(−t)(1−|x|²)^(1+s), T = {cfg['parabolic']['T']:g}, on the "
+    params = parameter_columns(quadrature=quad, grading=grading, T=T,
+                               reference_tag=reference_tag,
+                               reference_tau_factor=reference_tau_factor)
+    write_table(with_provenance(df.assign(
+        tau_factor=df.family.map(tau_factor), **params)), csv)
+    text = (f"Manufactured solution e^(−t)(1−|x|²)^(1+s), T = {T:g}, on the "
             "meshes and time steps of the parabolic examples, for the orders of Examples 4 "
             "and 5; the reference run is made like theirs. " + " ".join(notes) + "\n\n"
             + pd.DataFrame(summary).to_markdown(index=False, floatfmt=".3f") + "\n\n"
@@ -80,7 +92,9 @@ def main(cfg, quadrature, s_list, md, csv, threads):
 
 
 if __name__ == "__main__":
-    logging.basicConfig(filename=snakemake.log[0], level=logging.INFO)  # noqa: F821
-    main(snakemake.params.config, snakemake.params.config["quadrature"],  # noqa: F821
-         snakemake.params.s_list, snakemake.output.md, snakemake.output.csv,  # noqa: F821
+    main(snakemake.params.s_list, snakemake.params.T, snakemake.params.grading,  # noqa: F821
+         snakemake.params.uniform_levels, snakemake.params.graded_h,  # noqa: F821
+         snakemake.params.tau_factor, snakemake.params.reference_graded_h,  # noqa: F821
+         snakemake.params.reference_tau_factor, snakemake.params.quadrature,  # noqa: F821
+         snakemake.output.md, snakemake.output.csv, snakemake.log[0],  # noqa: F821
          snakemake.threads)  # noqa: F821

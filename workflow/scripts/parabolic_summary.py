@@ -1,14 +1,8 @@
 """Table of every parabolic run and error against wall time (Examples 4, 5)."""
-import sys
-from pathlib import Path
-
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).parent))
-from elliptic_time import time_panel  # noqa: E402
-from plotstyle import plt, save  # noqa: E402
-
-from fracfem.io import atomic_path  # noqa: E402
+from fracfem_workflow.io import atomic_path
+from fracfem_workflow.plotstyle import plt, save, time_panel
 
 
 def main(csvs, md, png):

@@ -2,10 +2,9 @@
 
     python workflow/scripts/pipeline_cost.py [--results results] [--out paper-figures]
 
-Every job with a `benchmark:` directive wrote seconds and peak RSS to
-results/benchmarks/; the figure and table jobs (seconds each) have none.  The
-elliptic part is Examples 1–3 and the assembly benchmark, the parabolic part
-Examples 4–5.  With `--cores 2` and two threads per job the jobs run one after
+Every job wrote seconds and peak RSS to results/benchmarks/ (its `benchmark:`
+file).  The elliptic part is Examples 1–3 and the assembly benchmark, the parabolic
+part Examples 4–5; figures and tables are the jobs that only read results.  With `--cores 2` and two threads per job the jobs run one after
 another, so the sum of job seconds is close to the pipeline's wall time.
 """
 import argparse
@@ -15,6 +14,7 @@ import pandas as pd
 
 PARTS = {"ex1": "elliptic", "ex1-quadrature": "elliptic", "vi": "elliptic",
          "benchmark_assembly.tsv": "elliptic", "para": "parabolic",
+         "figures": "figures and tables", "tables": "figures and tables",
          "stability.tsv": "stability (not in `all`)",
          "stability_vi.tsv": "stability (not in `all`)"}
 

@@ -1,8 +1,8 @@
 """The rate table: ours next to the paper's (CSV, Markdown, LaTeX)."""
 import pandas as pd
 
-from fracfem.io import atomic_path, write_table
-from fracfem.report import rate_table
+from fracfem_workflow.io import atomic_path, write_table
+from fracfem_workflow.report import rate_table
 
 
 # why a rate can differ from the paper's (README, "Differences from the paper")

@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pandas as pd
 
-from fracfem.io import atomic_path
-from fracfem.report import energy_error, extrapolate_energy
+from fracfem_workflow.io import atomic_path
+from fracfem_workflow.report import energy_error, extrapolate_energy
 
 
 def ex1_checks(ex1_csv, family):

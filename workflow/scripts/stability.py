@@ -3,20 +3,16 @@
 Each case reports finite values and the expected structure (Galerkin bound,
 positive definiteness, quadrature convergence) or the error it raised.
 """
-import sys
 import time
-from pathlib import Path
 
-import numba
 import numpy as np
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).parent))
-from plotstyle import plt, save  # noqa: E402
-
-import fracfem as ff  # noqa: E402
-from fracfem.io import atomic_path, with_provenance, write_table  # noqa: E402
-from fracfem.meshes import min_angle  # noqa: E402
+import fracfem as ff
+from fracfem.meshes import min_angle
+from fracfem_workflow.io import atomic_path, with_provenance, write_table
+from fracfem_workflow.plotstyle import plt, save
+from fracfem_workflow.runs import start
 
 
 def case(label, mesh, s):
@@ -49,8 +45,8 @@ def case(label, mesh, s):
     return row
 
 
-def main(md, png, csv, threads):
-    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+def main(md, png, csv, log=None, threads=None):
+    start(log, threads)
     rows = []
     for s in (0.01, 0.05, 0.1, 0.5, 0.9, 0.95, 0.99):
         for level in (3, 4):
@@ -87,4 +83,4 @@ def main(md, png, csv, threads):
 
 if __name__ == "__main__":
     main(snakemake.output.md, snakemake.output.png, snakemake.output.csv,  # noqa: F821
-         snakemake.threads)  # noqa: F821
+         snakemake.log[0], snakemake.threads)  # noqa: F821

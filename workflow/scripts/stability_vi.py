@@ -3,25 +3,17 @@ the constraints, and elliptic VI edge cases.  Each row: finite results and the
 expected structure, or the error raised."""
 import time
 
-import numba
 import numpy as np
 import pandas as pd
 
 import fracfem as ff
-from fracfem import examples, parabolic, vi
-from fracfem.io import atomic_path, with_provenance, write_table
+from fracfem import examples, vi
 from fracfem.meshes import min_angle
 from fracfem.solvers import ConvergenceError
+from fracfem_workflow.io import atomic_path, with_provenance, write_table
+from fracfem_workflow.runs import start
 
 CHI = examples.paraboloid_obstacle(1.0, 4.0)
-
-
-def _energy(prob, u):
-    uf = u[prob.disc.free]
-    e = 0.5 * float(uf @ (prob.disc.A @ uf))
-    if prob.kind == "friction":
-        e += float(np.sum(prob.cset.upper * np.abs(prob.cset.B.T @ uf)))
-    return e
 
 
 def parabolic_case(kind, tau, coarse):
@@ -33,13 +25,13 @@ def parabolic_case(kind, tau, coarse):
         prob = vi.mixed_problem("friction", coarse, 0.6, 0.0, F=0.1)
         u0 = examples.ring_initial(0.6)
     times = np.linspace(0.0, 5 * tau, 6)
-    st = parabolic.Stepper(prob)
-    runs = {"pdas": parabolic.solve_parabolic(st, u0, times, solver="pdas",
+    st = ff.Stepper(prob)
+    runs = {"pdas": ff.solve_parabolic(st, u0, times, solver="pdas",
                                               solver_options={"tol": 1e-10})}
-    uzawa = _uzawa(lambda: parabolic.solve_parabolic(
+    uzawa = _uzawa(lambda: ff.solve_parabolic(
         st, u0, times, solver="uzawa", solver_options={"tol": 1e-10, "maxiter": 200000}))
     steps = runs["pdas"][1:]
-    E = np.array([_energy(prob, s.u) for s in steps])
+    E = np.array([ff.discrete_energy(prob, s.u) for s in steps])
     y = [prob.cset.B.T @ s.u[prob.disc.free] - prob.cset.g for s in steps]
     lam = [s.lam for s in steps]
     if kind == "obstacle":
@@ -91,8 +83,8 @@ def free_solution(prob):
     return prob.disc.extend(np.linalg.solve(prob.disc.A, prob.disc.b))
 
 
-def main(md, csv, threads):
-    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+def main(md, csv, log=None, threads=None):
+    start(log, threads)
     coarse = ff.disk_uniform(3)
     rows = []
     for kind in ("obstacle", "friction"):
@@ -151,7 +143,7 @@ def main(md, csv, threads):
     # u₀ = χ: the parabolic obstacle problem started on the obstacle
     t0 = time.perf_counter()
     prob = vi.mixed_problem("obstacle", coarse, 0.5, 0.0, chi=CHI)
-    steps = parabolic.solve_parabolic(prob, CHI, T=0.25, tau=0.05)
+    steps = ff.solve_parabolic(prob, CHI, T=0.25, tau=0.05)
     y = [prob.cset.B.T @ s.u[prob.disc.free] - prob.cset.g for s in steps[1:]]
     rows.append({"case": "u₀ = χ (parabolic obstacle, τ = 0.05, 5 steps)",
                  "dofs": len(prob.disc.free),
@@ -170,4 +162,5 @@ def main(md, csv, threads):
 
 
 if __name__ == "__main__":
-    main(snakemake.output.md, snakemake.output.csv, snakemake.threads)  # noqa: F821
+    main(snakemake.output.md, snakemake.output.csv, snakemake.log[0],  # noqa: F821
+         snakemake.threads)  # noqa: F821

@@ -1,7 +1,7 @@
 """Markdown table of the obstacle and friction runs."""
 import pandas as pd
 
-from fracfem.io import atomic_path
+from fracfem_workflow.io import atomic_path
 
 COLUMNS = ["problem", "family", "dofs", "multipliers", "h_max", "iterations_uzawa",
            "iterations_pdas", "contact", "slip_plus", "slip_minus", "stick",
@@ -17,4 +17,4 @@ def main(tables, md):
 
 
 if __name__ == "__main__":
-    main(list(snakemake.input), snakemake.output.md)  # noqa: F821
+    main(list(snakemake.input.tables), snakemake.output.md)  # noqa: F821

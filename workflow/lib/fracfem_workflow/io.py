@@ -1,4 +1,5 @@
-"""Result files: atomic writes and provenance (no partial file is ever left)."""
+"""Result files of the workflow: atomic writes and provenance (no partial file is ever
+left)."""
 from __future__ import annotations
 
 import json
@@ -35,7 +36,7 @@ def provenance(config: dict | None = None) -> dict:
     import scipy
     import skfem
 
-    from . import __version__
+    from fracfem import __version__
     info = {
         "fracfem_version": __version__,
         "git_commit": _git_commit(),

@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["PAPER_RATES", "PAPER_S", "fit_rate", "rate_table", "extrapolate_energy",
-           "energy_error"]
+           "energy_error", "time_to_reach"]
 
 # error in H^s vs DOFs (parabolic: vs space-time DOFs), paper Section 8
 PAPER_RATES = {
@@ -94,3 +94,18 @@ def extrapolate_energy(dofs, energies) -> dict:
 def energy_error(energy, reference) -> np.ndarray:
     """√(2 |E(u_h) − E_ref|): the energy-norm error for Example 1 (exact there)."""
     return np.sqrt(2.0 * np.abs(np.asarray(energy, dtype=float) - reference))
+
+
+def time_to_reach(wall_times, errors, level) -> float:
+    """Wall time at which a series first reaches the error ``level`` (log-log
+    interpolation between its runs, ordered by wall time); NaN if it never does."""
+    order = np.argsort(np.asarray(wall_times, dtype=float), kind="stable")
+    e = np.log(np.asarray(errors, dtype=float)[order])
+    t = np.log(np.asarray(wall_times, dtype=float)[order])
+    for k in range(len(e)):
+        if e[k] <= np.log(level):
+            if k == 0:
+                return float(np.exp(t[0]))
+            w = (e[k - 1] - np.log(level)) / (e[k - 1] - e[k])
+            return float(np.exp(t[k - 1] + w * (t[k] - t[k - 1])))
+    return np.nan

@@ -1,0 +1,61 @@
+"""The workflow's own package (fracfem_workflow): result files, parameter columns,
+time to reach an error."""
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import fracfem as ff
+from fracfem_workflow.io import save_arrays, with_provenance, write_table
+from fracfem_workflow.report import time_to_reach
+from fracfem_workflow.runs import parabolic_pieces, parameter_columns
+
+
+def test_failed_writes_leave_no_file(tmp_path):
+    target = tmp_path / "row.csv"
+
+    class Boom(pd.DataFrame):
+        def to_csv(self, *a, **k):
+            raise RuntimeError("disk full")
+
+    with pytest.raises(RuntimeError):
+        write_table(Boom({"a": [1]}), target)
+    assert list(tmp_path.iterdir()) == []
+    save_arrays(tmp_path / "x.npz", a=np.arange(3))
+    assert [p.name for p in tmp_path.iterdir()] == ["x.npz"]
+
+
+def test_parameter_columns_survive_a_csv_round_trip(tmp_path):
+    quad = ff.QuadratureOptions(coincident=12)
+    cols = parameter_columns(quadrature=quad, theta=0.5, tau_factor=0.25, solver="pdas",
+                             segment=(-0.5, 0.5))
+    write_table(with_provenance(pd.DataFrame([cols])), tmp_path / "r.csv")
+    row = pd.read_csv(tmp_path / "r.csv").iloc[0]
+    assert row.theta == 0.5 and row.tau_factor == 0.25 and row.solver == "pdas"
+    assert json.loads(row.segment) == [-0.5, 0.5]
+    # the options can be rebuilt from the row: nothing of them is lost
+    back = {k[len("quadrature_"):]: (tuple(json.loads(v)) if isinstance(v, str) else int(v))
+            for k, v in row.items() if k.startswith("quadrature_")}
+    assert ff.QuadratureOptions(**back) == quad
+    assert isinstance(row.git_commit, str)
+
+
+def test_time_to_reach_interpolates_in_log_log():
+    t = np.array([1.0, 10.0, 100.0])
+    e = np.array([1e-1, 1e-2, 1e-3])
+    assert time_to_reach(t, e, 1e-2) == pytest.approx(10.0)
+    assert time_to_reach(t, e, 10 ** -1.5) == pytest.approx(10 ** 0.5)
+    assert time_to_reach(t[::-1], e[::-1], 10 ** -2.5) == pytest.approx(10 ** 1.5)
+    assert time_to_reach(t, e, 1.0) == 1.0                 # reached by the first run
+    assert np.isnan(time_to_reach(t, e, 1e-4))             # never reached
+
+
+def test_parabolic_pieces_are_the_steps_of_a_run(tmp_path):
+    m = ff.disk_uniform(1)
+    times = np.array([0.0, 0.25, 1.0])
+    U = np.arange(3 * m.p.shape[1], dtype=float).reshape(3, -1)
+    save_arrays(tmp_path / "run.npz", p=m.p, t=m.t, times=times, U=U)
+    pieces, _ = parabolic_pieces(tmp_path / "run.npz")
+    assert [(a, b) for a, b, _, _ in pieces] == [(0.0, 0.25), (0.25, 1.0)]
+    np.testing.assert_array_equal(pieces[1][3], U[2])     # u on (t_1, t_2] is U[2]

@@ -1,0 +1,62 @@
+"""Matplotlib settings and panels shared by the workflow's figures."""
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+plt.rcParams.update({"figure.dpi": 120, "savefig.dpi": 150, "font.size": 10,
+                     "axes.grid": True, "grid.alpha": 0.3})
+MARKERS = {"uniform": "o", "graded": "s", "adaptive": "^"}
+
+
+def save(fig, *paths):
+    for path in paths:
+        fig.savefig(path, bbox_inches="tight")
+    plt.close(fig)
+
+
+def solution_figure(npz_path, title, cmap="viridis"):
+    """Load a mixed-problem result; left panel the surface of u_h.
+
+    title may refer to {s}, {triangles} and, for parabolic runs, {T}.  Returns
+    (data, fig, right axes) for the caller's second panel.
+    """
+    import numpy as np
+    d = np.load(npz_path)
+    p, t = d["p"], d["t"]
+    fig = plt.figure(figsize=(10, 4.2))
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    ax.plot_trisurf(p[0], p[1], d["u"], triangles=t.T, cmap=cmap, linewidth=0)
+    fields = {"s": float(d["s"]), "triangles": t.shape[1]}
+    if "T" in d:                       # parabolic runs: the final time
+        fields["T"] = float(d["T"])
+    ax.set_title(title.format(**fields))
+    return d, fig, fig.add_subplot(1, 2, 2)
+
+
+def multiplier_panel(fig, ax, d, cmap):
+    """λ_H as a piecewise constant on the coarse mesh, with a colour bar."""
+    pc, tc = d["pc"], d["tc"]
+    tp = ax.tripcolor(pc[0], pc[1], tc.T, facecolors=d["lam"], cmap=cmap, edgecolors="none")
+    fig.colorbar(tp, ax=ax, label=r"$\lambda_H$")
+    ax.set_aspect("equal")
+
+
+def time_panel(ax, d, name, xlabel="wall time [s]"):
+    """Error against wall time of every family of d on ax; the time each family needs
+    for the smallest error all of them reach, as one row of a summary table."""
+    from .report import time_to_reach
+
+    level = d.groupby("family").error.min().max()
+    times = {}
+    for fam, g in d.groupby("family"):
+        g = g.sort_values("t_wall")
+        ax.loglog(g.t_wall, g.error, marker=MARKERS[fam], label=fam)
+        times[fam] = time_to_reach(g.t_wall.values, g.error.values, level)
+    ax.axhline(level, color="grey", lw=0.6, ls="--")
+    ax.set_title(name, fontsize=9)
+    ax.set_xlabel(xlabel)
+    ax.legend(fontsize=7)
+    best = min(times, key=times.get)
+    return {"common error": level, **{f"t_{k} [s]": v for k, v in sorted(times.items())},
+            "fastest": best, "speed-up vs slowest": max(times.values()) / times[best]}

@@ -1,0 +1,60 @@
+"""What the run scripts share: log and threads of a job, the parameter columns of a
+result row, and the time steps stored by a parabolic run."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+
+import numpy as np
+
+__all__ = ["start", "parameter_columns", "parameter_names", "parabolic_pieces"]
+
+# scalar parameters recorded in result rows (besides the quadrature_<field> columns)
+PARAMETERS = ("grading", "theta", "marking", "start_level", "max_dofs", "solver", "cross_check",
+              "tol", "maxiter", "T", "tau_factor", "c_tau")
+
+
+def start(log: str | None = None, threads: int | None = None) -> None:
+    """Log to ``log`` (the rule's log file) and give numba at most ``threads`` threads."""
+    if log is not None:
+        logging.basicConfig(filename=log, level=logging.INFO)
+    if threads is not None:
+        import numba
+        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+
+
+def _cell(value):
+    """A value as one CSV cell: sequences as JSON text."""
+    if isinstance(value, (list, tuple)):
+        return json.dumps(list(value))
+    return value
+
+
+def parameter_columns(quadrature=None, **parameters) -> dict:
+    """The parameters that produced a result row, as its columns.
+
+    quadrature: the fracfem.QuadratureOptions used (one column per field,
+    ``quadrature_<field>``); parameters: further scalars (θ, τ factor, solver,
+    tolerances, the example's data), sequences written as JSON.
+    """
+    cols = {k: _cell(v) for k, v in parameters.items()}
+    if quadrature is not None:
+        cols.update({f"quadrature_{f.name}": _cell(getattr(quadrature, f.name))
+                     for f in dataclasses.fields(quadrature)})
+    return cols
+
+
+def parameter_names(columns) -> list[str]:
+    """The parameter columns among ``columns``, in their order."""
+    return [c for c in columns if c in PARAMETERS or c.startswith("quadrature_")]
+
+
+def parabolic_pieces(npz):
+    """[(t_{k−1}, t_k, mesh, u_k)] of a stored parabolic run, and the loaded file."""
+    from skfem import MeshTri
+
+    d = np.load(npz)
+    mesh = MeshTri(d["p"], d["t"])
+    times, U = d["times"], d["U"]
+    return [(times[k - 1], times[k], mesh, U[k]) for k in range(1, len(times))], d
