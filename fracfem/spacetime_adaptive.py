@@ -18,6 +18,7 @@ from typing import Iterator
 
 import numpy as np
 
+from .stepsize import time_step
 from . import estimators
 from .adaptive import MARKINGS, _check_theta
 from .meshes import element_diameters, refine_disk
@@ -137,7 +138,7 @@ def _slab_times(slab, st, c_tau, n_min) -> np.ndarray:
     slab.h_max = float(element_diameters(st.mesh).max())
     length = slab.b - slab.a
     slab.n_steps = max(n_min, slab.n_steps,   # inherited: τ never grows
-                       math.ceil(length / (c_tau * slab.h_max ** (2 * st.s)) - 1e-9))
+                       math.ceil(length / time_step(slab.h_max, st.s, c_tau) - 1e-9))
     slab.tau = length / slab.n_steps
     return np.linspace(slab.a, slab.b, slab.n_steps + 1)
 
