@@ -18,13 +18,13 @@ from typing import Iterator
 
 import numpy as np
 
-from .stepsize import time_step
 from . import estimators
 from .adaptive import MARKINGS, _check_theta
 from .meshes import element_diameters, refine_disk
 from .parabolic import (Source, Stepper, _check_solver, _is_real, _positive,
                         _positive_int, time_steps)
 from .spacetime_estimators import initial_indicators, step_indicators
+from .stepsize import time_step
 from .transfer import transfer
 from .vi import MixedProblem
 
