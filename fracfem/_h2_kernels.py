@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ._kernels import _cos_power_integral as _kernels_cos_power
+
 
 # ---------------------------------------------------------------- Chebyshev
 
@@ -120,23 +122,29 @@ def _grid(box, z, X):  # pragma: no cover
 
 
 @njit(cache=True, parallel=True)
-def coupling_matrices(boxes, far_rows, far_cols, z, s):  # pragma: no cover
-    """K[b, α, β] = k(ξ^σ_α − ζ^τ_β) of every admissible block b = (σ, τ)."""
+def coupling_matrices(tboxes, sboxes, far_rows, far_cols, z, expo, comp):  # pragma: no cover
+    """K[b, α, β] = |r|^(2·expo), r = ζ^τ_β − ξ^σ_α, of every admissible block
+    b = (σ, τ), σ a target cluster (tboxes), τ a source cluster (sboxes);
+    with comp = 0 or 1 the kernel is r_comp |r|^(2·expo) instead."""
     nb = far_rows.shape[0]
     m = z.shape[0]
     p = m * m
-    expo = -1.0 - s
     K = np.empty((nb, p, p))
     for b in prange(nb):
         X = np.empty((p, 2))
         Y = np.empty((p, 2))
-        _grid(boxes[far_rows[b]], z, X)
-        _grid(boxes[far_cols[b]], z, Y)
+        _grid(tboxes[far_rows[b]], z, X)
+        _grid(sboxes[far_cols[b]], z, Y)
         for a in range(p):
             for c in range(p):
-                dx = X[a, 0] - Y[c, 0]
-                dy = X[a, 1] - Y[c, 1]
-                K[b, a, c] = (dx * dx + dy * dy) ** expo
+                dx = Y[c, 0] - X[a, 0]
+                dy = Y[c, 1] - X[a, 1]
+                v = (dx * dx + dy * dy) ** expo
+                if comp == 0:
+                    v *= dx
+                elif comp == 1:
+                    v *= dy
+                K[b, a, c] = v
     return K
 
 
@@ -465,3 +473,66 @@ def scatter_csr(indptr, indices, data, nodes, local, factor):  # pragma: no cove
             for b in range(m):
                 _csr_add(indptr, indices, data, nodes[k, a], nodes[k, b],
                          factor * local[k, a, b])
+
+
+# ---------------------------------------------------------------- κ
+
+
+@njit(cache=True)
+def _edge_term(x0, x1, edges, e, g, s, gl_x, gl_w, gj_x, gj_w, full, far_x, far_w,
+               far2_x):  # pragma: no cover
+    """Share of Gauss point g (0 or 1) of edge e in 2s·κ(x), by the rule of
+    :func:`fracfem._kernels.exterior_kappa`: its own term where that kernel
+    uses the two-point rule, else half of the edge's contribution."""
+    s2 = 2.0 * s
+    ax = edges[e, 0] - x0
+    ay = edges[e, 1] - x1
+    bx = edges[e, 2] - x0
+    by = edges[e, 3] - x1
+    tx = edges[e, 2] - edges[e, 0]
+    ty = edges[e, 3] - edges[e, 1]
+    ln = np.sqrt(tx * tx + ty * ty)
+    tx /= ln
+    ty /= ln
+    d = ax * ty - ay * tx
+    if d == 0.0:
+        return 0.0
+    ad = abs(d)
+    t1 = ax * tx + ay * ty
+    t2 = bx * tx + by * ty
+    mx = 0.5 * (ax + bx)
+    my = 0.5 * (ay + by)
+    dm2 = mx * mx + my * my
+    if dm2 > 144.0 * ln * ln:
+        tg = t1 + (t2 - t1) * far2_x[g]
+        return d * (t2 - t1) * 0.5 * (d * d + tg * tg) ** (-1.0 - s)
+    if dm2 > 16.0 * ln * ln:
+        part = 0.0
+        for q in range(far_x.shape[0]):
+            tq = t1 + (t2 - t1) * far_x[q]
+            part += far_w[q] * (d * d + tq * tq) ** (-1.0 - s)
+        return 0.5 * d * (t2 - t1) * part
+    f2 = _kernels_cos_power(np.arctan(t2 / ad), s2, gl_x, gl_w, gj_x, gj_w, full)
+    f1 = _kernels_cos_power(np.arctan(t1 / ad), s2, gl_x, gl_w, gj_x, gj_w, full)
+    return 0.5 * np.sign(d) * ad ** (-s2) * (f2 - f1)
+
+
+@njit(cache=True, parallel=True)
+def kappa_near(x, tperm, tstart, near_ptr, near_rows, near_cols, tend, sperm, sstart, send,
+               src_edge, src_g, edges, s, gl_x, gl_w, gj_x, gj_w, full, far_x, far_w,
+               far2_x, out):  # pragma: no cover
+    """out[i] += κ share of the near blocks of the target leaf of x_i (no
+    races: every target point lies in one leaf)."""
+    s2 = 2.0 * s
+    for ri in prange(near_rows.shape[0]):
+        tl = near_rows[ri]
+        for k in range(tstart[tl], tend[tl]):
+            i = tperm[k]
+            acc = 0.0
+            for bb in range(near_ptr[ri], near_ptr[ri + 1]):
+                sl = near_cols[bb]
+                for kk in range(sstart[sl], send[sl]):
+                    j = sperm[kk]
+                    acc += _edge_term(x[i, 0], x[i, 1], edges, src_edge[j], src_g[j], s,
+                                      gl_x, gl_w, gj_x, gj_w, full, far_x, far_w, far2_x)
+            out[i] += acc / s2

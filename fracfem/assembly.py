@@ -270,9 +270,10 @@ def _graded_collapsed_rule(layers, ngauss, toward_apex):
     return bary, W.ravel()
 
 
-def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None):
+def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None, kappa=None):
     """∫_T φ_a φ_b κ for every element (Nt, 3, 3); zero for elements whose
-    three nodes are all on ∂Ω (they carry no free node)."""
+    three nodes are all on ∂Ω (they carry no free node).  ``kappa``: x ↦ κ(x)
+    (default :func:`exterior_kernel` with the mesh's boundary)."""
     nt = len(t)
     onb = np.isin(t, boundary_nodes)
     nb = onb.sum(1)
@@ -309,7 +310,9 @@ def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None):
             lam = np.empty_like(bary)
             lam[:, order] = bary
         x = np.einsum("qk,tkd->tqd", lam, p[t[els]])
-        kap = exterior_kernel(x.reshape(-1, 2), edges, s).reshape(len(els), -1)
+        pts = x.reshape(-1, 2)
+        kap = (exterior_kernel(pts, edges, s) if kappa is None else kappa(pts)) \
+            .reshape(len(els), -1)
         wk = kap * (w[None, :] * area2[els, None])
         out[els] = np.einsum("tq,qa,qb->tab", wk, lam, lam)
     return out

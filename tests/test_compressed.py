@@ -116,3 +116,19 @@ def test_discretise_operator_choice():
     assert not ff.discretise(mesh, 0.5, operator="compressed").dense
     with pytest.raises(ValueError, match="operator='sparse'"):
         ff.discretise(mesh, 0.5, operator="sparse")
+
+
+@pytest.mark.parametrize("s", [0.1, 0.9])
+def test_compressed_kappa_matches_exterior_kernel(s):
+    from fracfem.assembly import _boundary_edges, exterior_kernel, mesh_arrays
+    from fracfem.compressed import CompressedKappa
+
+    p, t = mesh_arrays(disk_uniform(5))
+    edges, _ = _boundary_edges(p, t)
+    x = p[t].mean(axis=1)
+    exact = exterior_kernel(x, edges, s)
+    errs = []
+    for order in (5, 8):
+        kappa = CompressedKappa(edges, s, order=order, eta=0.5, leaf_size=16)
+        errs.append(np.max(np.abs(kappa(x) - exact) / exact))
+    assert errs[1] <= 1e-8 and errs[0] > 10 * errs[1]
