@@ -342,6 +342,8 @@ def _check_dense_memory(nv, nt, nchunks, quad, limit):
         if nchunks > 1 and serial <= avail:
             advice += (f", or nchunks=1 (one far-field copy, serial far field: "
                        f"{serial / memory.GIB:.3g} GiB)")
+    advice += (", or the compressed operator (fracfem.stiffness_operator, or "
+               "discretise(..., operator='compressed'))")
     memory.check_dense(dense_bytes(nv, nt, nchunks, quad),
                        what=f"the dense stiffness matrix for N = {nv} nodes "
                             f"({nt} triangles, nchunks={nchunks})",

@@ -236,6 +236,7 @@ def test_memory_refusal_names_size_memory_and_alternative():
     assert f"needs about {need:.3g} GiB" in msg and 1.5 < need < 1.7
     assert "only 0.0977 GiB are allowed by memory_limit=" in msg
     assert "use a coarser mesh (about N = " in msg
+    assert "operator='compressed'" in msg
     fit = int(msg.split("about N = ")[1].split()[0])
     assert 0 < fit < n and 3 * 8 * fit**2 < 100 * 2**20
     assert peak < 20 * 2**20, peak                 # the 530 MiB matrix was never allocated
