@@ -40,6 +40,30 @@ rule benchmark_assembly:
         "--levels {params.levels} --s {params.s} --csv {output.csv} --md {output.md} > {log} 2>&1"
 
 
+# Not in `rule all` (about an hour at the default sizes):
+# `snakemake --cores 2 benchmark_compressed`.
+rule benchmark_compressed:
+    output:
+        csv=f"{OUT}/benchmark-compressed.csv",
+        md=f"{OUT}/benchmark-compressed.md",
+    params:
+        script=str(Path(workflow.basedir) / "benchmarks" / "bench_compressed.py"),
+        uniform=config["benchmark_compressed"]["uniform"],
+        graded=config["benchmark_compressed"]["graded"],
+        s=config["benchmark_compressed"]["s"],
+    log:
+        f"{RES}/logs/benchmark_compressed.log",
+    benchmark:
+        f"{RES}/benchmarks/benchmark_compressed.tsv"
+    threads: 2
+    conda:
+        ENV
+    shell:
+        "NUMBA_NUM_THREADS={threads} python {params.script} --uniform {params.uniform} "
+        "--graded {params.graded} --s {params.s} --csv {output.csv} --md {output.md} "
+        "> {log} 2>&1"
+
+
 rule bad_inputs:
     output:
         md=f"{OUT}/bad-inputs.md",
