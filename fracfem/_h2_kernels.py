@@ -237,24 +237,26 @@ def upward(W, E, level_nodes, level_ptr, child0, child1, m):  # pragma: no cover
 
 
 @njit(cache=True, parallel=True)
-def couple(G, W, K, blk_ptr, blk_col, blk_idx, rows):  # pragma: no cover
-    """G[σ] = Σ_{admissible (σ, τ)} K_στ W[τ], blocks grouped by σ."""
+def couple_grouped(W, K, grp_ptr, blk_rows, blk_cols, nc, nchunks):  # pragma: no cover
+    """G[σ] = Σ_{admissible (σ, τ)} K_b W[τ] with the blocks grouped by their
+    coupling matrix (grp_ptr[g]:grp_ptr[g+1] use K[g]): each K is read once and
+    stays in cache.  Returns per-chunk sums (nchunks, nc, nrhs, p)."""
     nrhs = W.shape[1]
     p = W.shape[2]
-    for ii in prange(rows.shape[0]):
-        c = rows[ii]
-        for r in range(nrhs):
-            for a in range(p):
-                G[c, r, a] = 0.0
-        for q in range(blk_ptr[ii], blk_ptr[ii + 1]):
-            tau = blk_col[q]
-            b = blk_idx[q]
-            for a in range(p):
-                for r in range(nrhs):
-                    acc = 0.0
-                    for cc in range(p):
-                        acc += K[b, a, cc] * W[tau, r, cc]
-                    G[c, r, a] += acc
+    ng = grp_ptr.shape[0] - 1
+    G = np.zeros((nchunks, nc, nrhs, p))
+    for c in prange(nchunks):
+        for g in range(c, ng, nchunks):
+            for q in range(grp_ptr[g], grp_ptr[g + 1]):
+                sig = blk_rows[q]
+                tau = blk_cols[q]
+                for a in range(p):
+                    for r in range(nrhs):
+                        acc = 0.0
+                        for cc in range(p):
+                            acc += K[g, a, cc] * W[tau, r, cc]
+                        G[c, sig, r, a] += acc
+    return G
 
 
 @njit(cache=True)

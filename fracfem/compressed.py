@@ -348,16 +348,17 @@ def _far_blocks(tt: dict, ts: dict, far: np.ndarray, tdata: dict, sdata: dict,
     """Admissible blocks grouped by target cluster, with one coupling matrix per
     block geometry for each kernel: |r|^(2·expo) (comp −1) or r_comp |r|^(2·expo)
     (K is then a list, one array per comp)."""
-    fr = far[np.lexsort((far[:, 1], far[:, 0]))]
-    rows, ptr = np.unique(fr[:, 0], return_index=True)
+    fr = far
     _, first, inverse = np.unique(block_keys(tt["dyadic"], ts["dyadic"], fr), axis=0,
                                   return_index=True, return_inverse=True)
     K = [hk.coupling_matrices(tdata["boxes"], sdata["boxes"], fr[first, 0].copy(),
                               fr[first, 1].copy(), z, expo, comp) for comp in comps]
+    # blocks grouped by coupling matrix
+    inverse = inverse.reshape(-1)
+    order = np.argsort(inverse, kind="stable")
+    grp_ptr = np.searchsorted(inverse[order], np.arange(len(first) + 1)).astype(np.int64)
     return dict(z=z, tgt=tdata, src=sdata, K=K[0] if len(K) == 1 else K,
-                blk_rows=rows.astype(np.int64),
-                blk_ptr=np.append(ptr, len(fr)).astype(np.int64),
-                blk_col=fr[:, 1].copy(), blk_idx=inverse.reshape(-1).astype(np.int64))
+                grp_ptr=grp_ptr, grp_rows=fr[order, 0].copy(), grp_cols=fr[order, 1].copy())
 
 
 def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None) -> np.ndarray:
@@ -371,9 +372,9 @@ def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None) -> np.ndarr
     hk.leaf_moments(src, S["cent"], S["perm"], S["leaves"], S["start"], S["end"],
                     S["boxes"], z, W)
     hk.upward(W, S["E"], S["level_nodes"], S["level_ptr"], S["child0"], S["child1"], m)
-    G = np.zeros((len(T["boxes"]), nrhs, m * m))
-    hk.couple(G, W, f["K"] if K is None else K, f["blk_ptr"], f["blk_col"], f["blk_idx"],
-              f["blk_rows"])
+    import numba
+    G = hk.couple_grouped(W, f["K"] if K is None else K, f["grp_ptr"], f["grp_rows"],
+                          f["grp_cols"], len(T["boxes"]), numba.get_num_threads()).sum(axis=0)
     hk.downward(G, T["E"], T["level_nodes"], T["level_ptr"], T["child0"], T["child1"], m)
     out = np.zeros((len(T["cent"]), nrhs, 6))
     hk.leaf_evaluate(G, T["cent"], T["perm"], T["leaves"], T["start"], T["end"],
