@@ -37,6 +37,7 @@ __all__ = ["pdas", "uzawa", "schur_sigma_max"]
 
 SINGULAR_PIVOT = 1e-10   # pivots of K below this times max diag(K): K is singular
 KERNEL_SHIFT = 1e-8      # K + shift·max diag(K) stands in for a singular K
+LOOSE_TOL = 1e-6         # inner accuracy of the PDAS steps before the sets settle
 LANCZOS_TOL = 1e-6       # relative change of the top Ritz value that stops Lanczos
 LANCZOS_STEPS = 60
 SCHUR_SOLVE_TOL = 1e-10  # PCG tolerance of each product with S = BᵀA⁻¹B
@@ -199,7 +200,7 @@ def _start(u0, n):
 
 def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=None,
          lam0=None, u0=None, inner_tol: float | None = None, inner_maxiter: int = 1000,
-         warm_start: bool = True):
+         warm_start: bool = True, loose: bool = True):
     """Primal–dual active set method for Problem 5.15 with inner Krylov solves.
 
     The sets, the stopping test (fixed-point residual ‖λ − P_Λ(λ + c∘y)‖ below
@@ -220,6 +221,9 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
     inner_maxiter : PCG iterations per step before :class:`ConvergenceError`
     warm_start : start each step from the previous u (else from the nearest
         feasible point to 0)
+    loose : solve the steps to the relative KKT residual 1e-6 until the sets
+        settle, then those sets once more to ``inner_tol`` (else every step
+        to ``inner_tol``); a settled set is only accepted after the accurate solve
 
     Returns
     -------
@@ -253,16 +257,18 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
     inner = []
     free = _Projector(sp.csc_matrix((n, 0)), inv_d)
 
-    def solve(rhs, u, proj, gE):
+    def solve(rhs, u, proj, gE, accuracy):
         x0 = proj.feasible(u if warm_start else np.zeros(n), gE)
-        u, w, it = _cg(A, rhs, x0, M, proj, inner_tol, inner_maxiter, f"PDAS ({cset.kind})")
+        u, w, it = _cg(A, rhs, x0, M, proj, accuracy, inner_maxiter, f"PDAS ({cset.kind})")
         inner.append(it)
         return u, w
 
-    u, _ = solve(f, u, free, None)           # u(0): the data d of the stopping test
+    # steps are solved to LOOSE_TOL until the sets settle, then once more to inner_tol
+    accuracy = max(LOOSE_TOL, inner_tol) if loose else inner_tol
+    u, _ = solve(f, u, free, None, accuracy)  # u(0): the data d of the stopping test
     d = Bt @ u - cset.g
     if np.any(lam):
-        u, _ = solve(f - B @ lam, u, free, None)
+        u, _ = solve(f - B @ lam, u, free, None, accuracy)
     t_initial = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -280,10 +286,16 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
             history.append(residual)
             log.info("pdas (%s) step %d: |E| = %d, %d inner iterations, residual %.2e",
                      cset.kind, step, n_constrained[-1], inner[-1], residual)
-            if residual < tol and (np.array_equal(new_state, state)
-                                   or residual < 0.1 * tol):
+            same = np.array_equal(new_state, state)
+            if (same or residual < 0.1 * tol) and accuracy > inner_tol and step < maxiter:
+                accuracy = inner_tol  # the sets have settled: solve them accurately
+                n_constrained.append(n_constrained[-1])
+                lam[E] = 0.0
+                u, lam[E] = solve(f - B @ lam, u, proj, cset.g[E], accuracy)
+                continue
+            if residual < tol and (same or residual < 0.1 * tol):
                 break
-            if np.array_equal(new_state, state):
+            if same:
                 raise ConvergenceError("PDAS: the active sets repeat but the residual "
                                        f"is above tol = {tol:g}", step, residual)
         if step == maxiter:
@@ -299,7 +311,7 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
         n_constrained.append(int(E.size))
         lam = np.where(state > 0, upper, np.where(state < 0, lower, 0.0))
         proj = _Projector(B[:, E], inv_d)
-        u, lam[E] = solve(f - B @ lam, u, proj, cset.g[E])
+        u, lam[E] = solve(f - B @ lam, u, proj, cset.g[E], accuracy)
     info = {
         "iterations": len(history),
         "residuals": history,
