@@ -47,6 +47,16 @@ class MultilevelPreconditioner:
             z += P @ (ie * (P.T @ r))
         return z
 
+    def congruence_diagonal(self, B) -> np.ndarray:
+        """diag(Bᵀ B_M B) for a sparse B (n × m), B_M this preconditioner; cheap
+        (sparse products), and a stand-in for diag(BᵀA⁻¹B)."""
+        B = sp.csc_matrix(B)
+        out = np.asarray(B.multiply(B).T @ self._inv_diag).ravel()
+        for P, ie in zip(self._P, self._inv_e):
+            PB = sp.csc_matrix(P.T @ B)
+            out += np.asarray(PB.multiply(PB).T @ ie).ravel()
+        return out
+
 
 def _grid_prolongation(x, origin, H, n, active):
     """Bilinear hats of the grid (spacing H, n × n nodes) at points x, only

@@ -202,6 +202,18 @@ def _check_problem(A, B, f, cset, factor):
     return factor, B, f, time.perf_counter() - t0
 
 
+def _is_operator(A, factor, schur, krylov) -> bool:
+    """Whether A is an operator (the Krylov path); refuses mixed-up options."""
+    if isinstance(A, spla.LinearOperator):
+        if factor is not None or schur is not None:
+            raise ValueError("factor and schur belong to a dense A; A is an operator")
+        return True
+    if krylov:
+        raise TypeError(f"options {sorted(krylov)} are for an operator A "
+                        "(scipy LinearOperator); A is dense")
+    return False
+
+
 def _check_schur(schur, m):
     """A precomputed S = BᵀA⁻¹B of shape (m, m)."""
     schur = np.asarray(schur, dtype=float)
@@ -232,7 +244,8 @@ def _relative(num, scale):
 
 
 def uzawa(A, B, f, cset, *, rho=None, tol: float = 1e-10, maxiter: int = 100_000,
-          lam0=None, factor=None, schur=None, dense_limit: int = DENSE_EIGEN_LIMIT):
+          lam0=None, factor=None, schur=None, dense_limit: int = DENSE_EIGEN_LIMIT,
+          **krylov):
     """Uzawa iteration, Algorithm A, for Problem 5.15.
 
     u^n = A⁻¹(f − Bλ^n),  λ^{n+1} = P_Λ(λ^n + ρ(Bᵀu^n − g)).
@@ -275,7 +288,15 @@ def uzawa(A, B, f, cset, *, rho=None, tol: float = 1e-10, maxiter: int = 100_000
         ``sigma_min``, ``sigma_max``, ``kernel_dim`` (see :func:`schur_spectrum`;
         None if ρ was given), ``seconds`` (``factorisation``, ``eigenvalues``,
         ``iterations``).
+
+    An A that is a ``scipy.sparse.linalg.LinearOperator`` (e.g. the compressed
+    operator) goes to :func:`fracfem.krylov_vi.uzawa` with the options
+    ``krylov`` (M, u0, inner_tol, inner_maxiter): nothing dense is formed.
     """
+    if _is_operator(A, factor, schur, krylov):
+        from .krylov_vi import uzawa as uzawa_operator
+        return uzawa_operator(A, B, f, cset, rho=rho, tol=tol, maxiter=maxiter, lam0=lam0,
+                              **krylov)
     if not (isinstance(maxiter, (int, np.integer)) and maxiter >= 1):
         raise ValueError(f"maxiter must be a positive integer; got {maxiter!r}")
     if not (np.isfinite(tol) and tol > 0):
@@ -351,7 +372,7 @@ def _uzawa_loop(dual_gradient, cset, rho, tol, maxiter, lam):
 
 
 def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
-         lam0=None, factor=None, schur=None):
+         lam0=None, factor=None, schur=None, **krylov):
     """Primal–dual active set (semismooth Newton) method for Problem 5.15.
 
     With y = Bᵀu − g and z = λ + c∘y, each step takes the sets
@@ -388,7 +409,15 @@ def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
         ``info`` holds ``iterations``, ``residuals``, ``residual``, ``n_constrained``
         (|E| per step: contact resp. stick multipliers), ``c``, ``seconds``
         (``factorisation``, ``schur``, ``iterations``).
+
+    An A that is a ``scipy.sparse.linalg.LinearOperator`` goes to
+    :func:`fracfem.krylov_vi.pdas` with the options ``krylov`` (M, u0,
+    inner_tol, inner_maxiter, warm_start): inner Krylov solves, nothing dense.
     """
+    if _is_operator(A, factor, schur, krylov):
+        from .krylov_vi import pdas as pdas_operator
+        return pdas_operator(A, B, f, cset, tol=tol, maxiter=maxiter, c=c, lam0=lam0,
+                             **krylov)
     if not (isinstance(maxiter, (int, np.integer)) and maxiter >= 1):
         raise ValueError(f"maxiter must be a positive integer; got {maxiter!r}")
     factor, B, f, t_factor = _check_problem(A, B, f, cset, factor)

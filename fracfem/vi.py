@@ -3,7 +3,10 @@
 The displacement lives on the fine mesh T_h = T_H.refined(), the multiplier λ_H is
 P0 on the coarse mesh T_H (interior problems) or on coarse edges of a curve Γ̃
 (thin problems).  :func:`mixed_problem` assembles everything once; :func:`solve`
-runs Uzawa (Algorithm A) or the primal–dual active set method on it.
+runs Uzawa (Algorithm A) or the primal–dual active set method on it: with a
+dense stiffness matrix through its Cholesky factor and the Schur complement
+BᵀA⁻¹B, with the compressed operator (``operator="compressed"``) by inner
+Krylov solves (:mod:`fracfem.krylov_vi`; no dense matrix at all).
 """
 from __future__ import annotations
 
@@ -13,11 +16,13 @@ from typing import Callable
 
 import numpy as np
 
-from . import mixed, solvers
+from . import krylov_vi, mixed, solvers
 from .assembly import QuadratureOptions
+from .compressed import DEFAULT_TOL
 from .exact import check_s
 from .laplace import Discretisation, discretise
 from .meshes import refine_disk, validates
+from .preconditioners import multilevel_preconditioner
 
 __all__ = ["MixedProblem", "mixed_problem", "solve", "fine_mesh"]
 
@@ -40,6 +45,7 @@ class MixedProblem:
     edges: np.ndarray | None = None  # coarse edges of Γ̃ (thin problems)
     factor: object = None
     schur: np.ndarray | None = None   # S = Bᵀ A⁻¹ B, formed once
+    preconditioner: object = None     # r ↦ M⁻¹r for a compressed A, built once
     timings: dict = field(default_factory=dict)
 
     @property
@@ -52,11 +58,14 @@ def mixed_problem(kind: str, coarse, s: float, f, *, chi: Callable | None = None
                   F: float | None = None, subdomain: Callable | None = None,
                   edges: np.ndarray | None = None, height: Callable | None = None,
                   quadrature: QuadratureOptions | None = None,
-                  fine=None) -> MixedProblem:
+                  fine=None, operator: str = "dense",
+                  tol: float = DEFAULT_TOL) -> MixedProblem:
     """Assemble the mixed problem of the given kind on T_H = coarse.
 
     kind: 'obstacle' (needs chi), 'friction' (F, optional subdomain),
     'thin_obstacle' (edges, height; s > 1/2), 'thin_friction' (edges, F; s > 1/2).
+    operator, tol: the stiffness representation (:func:`fracfem.discretise`):
+    'dense', 'compressed' (accuracy tol) or 'auto'.
     """
     if kind not in KINDS:
         raise ValueError(f"kind={kind!r} must be one of {KINDS}")
@@ -68,7 +77,7 @@ def mixed_problem(kind: str, coarse, s: float, f, *, chi: Callable | None = None
     t0 = time.perf_counter()
     fine = fine_mesh(coarse) if fine is None else fine
     t_mesh = time.perf_counter() - t0
-    disc = discretise(fine, s, f, quadrature=quadrature)
+    disc = discretise(fine, s, f, quadrature=quadrature, operator=operator, tol=tol)
     free = disc.free
     if kind == "obstacle":
         if chi is None:
@@ -96,9 +105,25 @@ def mixed_problem(kind: str, coarse, s: float, f, *, chi: Callable | None = None
 
 
 def solve(prob: MixedProblem, solver: str = "uzawa", **kwargs):
-    """(u over all fine nodes, λ_H, info) by 'uzawa' (Algorithm A) or 'pdas'."""
+    """(u over all fine nodes, λ_H, info) by 'uzawa' (Algorithm A) or 'pdas'.
+
+    A compressed operator (``prob.disc.dense`` False) is solved by
+    :mod:`fracfem.krylov_vi` with the multilevel preconditioner; ``kwargs`` go
+    to the solver.
+    """
     if solver not in ("uzawa", "pdas"):
         raise ValueError(f"solver={solver!r} must be 'uzawa' or 'pdas'")
+    if not prob.disc.dense:
+        if prob.preconditioner is None:
+            t0 = time.perf_counter()
+            prob.preconditioner = multilevel_preconditioner(prob.fine, prob.disc.A)
+            prob.timings["preconditioner"] = time.perf_counter() - t0
+        run = krylov_vi.uzawa if solver == "uzawa" else krylov_vi.pdas
+        t0 = time.perf_counter()
+        u, lam, info = run(prob.disc.A, prob.cset.B, prob.disc.b, prob.cset,
+                           M=prob.preconditioner, **kwargs)
+        info["seconds_total"] = time.perf_counter() - t0
+        return prob.disc.extend(u), lam, info
     if prob.factor is None:
         t0 = time.perf_counter()
         prob.factor = solvers.cholesky_factor(prob.disc.A)
