@@ -5,6 +5,7 @@ import logging
 import time
 
 import numpy as np
+import scipy.sparse.linalg as spla
 
 from .solvers import ConvergenceError
 
@@ -78,7 +79,7 @@ def pcg(A, b: np.ndarray, *, M=None, tol: float = 1e-10, maxiter: int = 1000,
     return x, {"iterations": it, "residual": res, "seconds": sec}
 
 
-class ShiftedOperator:
+class ShiftedOperator(spla.LinearOperator):
     """K = A + c·M for an operator A (``@``, ``diagonal()``) and a sparse M:
     the DG(0) matrix M/τ + A with c = 1/τ."""
 
@@ -87,11 +88,15 @@ class ShiftedOperator:
             raise ValueError(f"c={c!r} must be a positive number")
         if A.shape != M.shape:
             raise ValueError(f"A {A.shape} and M {M.shape} must have the same shape")
+        super().__init__(dtype=np.float64, shape=A.shape)
         self.A, self.M, self.c = A, M, float(c)
-        self.shape = A.shape
 
-    def __matmul__(self, x):
+    def _matvec(self, x):
+        x = np.asarray(x, dtype=np.float64).reshape(-1)
         return self.A @ x + self.c * (self.M @ x)
+
+    def _rmatvec(self, x):
+        return self._matvec(x)
 
     def diagonal(self) -> np.ndarray:
         return self.A.diagonal() + self.c * self.M.diagonal()

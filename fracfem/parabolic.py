@@ -235,7 +235,11 @@ class Stepper:
         thin_obstacle, thin_friction) or :class:`fracfem.laplace.Discretisation`
         (the unconstrained fractional heat equation)
     max_cached : number of distinct τ whose Cholesky factor (and Schur complement)
-        are kept (least recently used dropped); each costs one dense n × n matrix
+        are kept (least recently used dropped); each costs one dense n × n matrix.
+        With a compressed operator (``discretise(..., operator='compressed')``)
+        M/τ + A stays an operator with a multilevel preconditioner per τ, and
+        every step is solved by warm-started Krylov iterations (PCG, or the
+        PDAS / Uzawa of :mod:`fracfem.krylov_vi`): nothing dense is formed.
 
     Attributes
     ----------
@@ -371,9 +375,16 @@ class Stepper:
             u = la.cho_solve(op["factor"], rhs, check_finite=False)
             lam, info = None, {}
         elif op["factor"] is None:
-            raise ValueError("the obstacle and friction DG(0) steps need the dense operator "
-                             "(discretise(..., operator='dense')); with the compressed one "
-                             "only the unconstrained heat equation is stepped")
+            # inner Krylov solves with M/τ + A, warm-started from u^{k−1}
+            opts = dict(solver_options or {})
+            if lam0 is not None and "lam0" not in opts:
+                opts["lam0"] = lam0
+            opts.setdefault("M", op["preconditioner"])
+            opts.setdefault("u0", u_prev)
+            run = {"pdas": solvers.pdas, "uzawa": solvers.uzawa}.get(solver)
+            if run is None:
+                raise ValueError(f"solver={solver!r} must be 'pdas' or 'uzawa'")
+            u, lam, info = run(op["K"], self.cset.B, rhs, self.cset, **opts)
         else:
             opts = dict(solver_options or {})
             if lam0 is not None and "lam0" not in opts:

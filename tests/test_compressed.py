@@ -132,3 +132,20 @@ def test_compressed_kappa_matches_exterior_kernel(s):
         kappa = CompressedKappa(edges, s, order=order, eta=0.5, leaf_size=16)
         errs.append(np.max(np.abs(kappa(x) - exact) / exact))
     assert errs[1] <= 1e-8 and errs[0] > 10 * errs[1]
+
+
+def test_obstacle_dg0_steps_with_compressed_operator_match_dense():
+    import fracfem as ff
+
+    coarse = disk_uniform(2)
+    runs = {}
+    for op in ("dense", "compressed"):
+        prob = ff.mixed_problem("obstacle", coarse, 0.5, 0.0,
+                                chi=lambda x: 1.0 - 4.0 * (x[0] ** 2 + x[1] ** 2),
+                                operator=op)
+        runs[op] = list(ff.time_steps(prob, 1.0, T=0.2, tau=0.05,
+                                      solver_options={"tol": 1e-10}))
+    for a, b in zip(runs["dense"][1:], runs["compressed"][1:]):
+        assert np.linalg.norm(a.u - b.u) <= 1e-6 * np.linalg.norm(a.u)
+        assert np.linalg.norm(a.lam - b.lam) <= 1e-5 * max(np.linalg.norm(a.lam), 1e-12)
+    assert np.linalg.norm(runs["dense"][-1].lam) > 0       # u0 = 1: contact from t = 0
