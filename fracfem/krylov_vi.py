@@ -232,7 +232,7 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
         ``c``, ``inner_iterations`` (per solve, the first two unconstrained),
         ``seconds`` (``initial``, ``iterations``).
     """
-    inner_tol = tol if inner_tol is None else inner_tol
+    inner_tol = min(tol, 0.1) if inner_tol is None else inner_tol
     B, f, inv_d, M = _check(A, B, f, cset, M, tol, maxiter, inner_tol, inner_maxiter)
     n, m = B.shape
     Bt = B.T.tocsr()
@@ -287,15 +287,16 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
             log.info("pdas (%s) step %d: |E| = %d, %d inner iterations, residual %.2e",
                      cset.kind, step, n_constrained[-1], inner[-1], residual)
             same = np.array_equal(new_state, state)
-            if (same or residual < 0.1 * tol) and accuracy > inner_tol and step < maxiter:
+            settled = same or residual < 0.1 * tol
+            if settled and accuracy > inner_tol and step < maxiter:
                 accuracy = inner_tol  # the sets have settled: solve them accurately
                 n_constrained.append(n_constrained[-1])
                 lam[E] = 0.0
                 u, lam[E] = solve(f - B @ lam, u, proj, cset.g[E], accuracy)
                 continue
-            if residual < tol and (same or residual < 0.1 * tol):
+            if residual < tol and settled and accuracy <= inner_tol:
                 break
-            if same:
+            if same and accuracy <= inner_tol:
                 raise ConvergenceError("PDAS: the active sets repeat but the residual "
                                        f"is above tol = {tol:g}", step, residual)
         if step == maxiter:
@@ -382,7 +383,7 @@ def uzawa(A, B, f, cset, *, M=None, rho=None, tol: float = 1e-10, maxiter: int =
     Returns u, lam, info (``iterations``, ``residuals``, ``residual``, ``rho``,
     ``sigma_max``, ``inner_iterations`` (total), ``seconds``).
     """
-    inner_tol = max(0.1 * tol, 1e-14) if inner_tol is None else inner_tol
+    inner_tol = min(max(0.1 * tol, 1e-14), 0.1) if inner_tol is None else inner_tol
     B, f, inv_d, M = _check(A, B, f, cset, M, tol, maxiter, inner_tol, inner_maxiter)
     n = B.shape[0]
     Bt = B.T.tocsr()

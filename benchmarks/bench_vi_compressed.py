@@ -1,0 +1,116 @@
+"""Obstacle benchmark with the compressed operator: Example 2 by PDAS with inner
+Krylov solves, no dense matrix.
+
+Example 2: (−Δ)^s u ≥ 1 above χ(x) = 1 − 4|x|² on the unit disk, s = 0.5, in the
+mixed form (u P1 on T_h = T_H refined, λ_H P0 on T_H = disk_uniform(L)).  Per
+level: free nodes (DOFs), multipliers, assembly seconds, preconditioner seconds,
+PDAS steps, inner PCG iterations (total and per solve), solve seconds, memory of
+the operator and peak RSS of the process; up to ``--dense-check`` the dense PDAS
+(Cholesky factor and Schur complement) on the same mesh, and the differences.
+
+    python benchmarks/bench_vi_compressed.py --levels 4 5 6 7 \\
+        --csv benchmarks/vi_compressed.csv --md benchmarks/vi_compressed.md
+
+Each level runs in its own process so that peak memory is per level.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+COLUMNS = ["level", "dofs", "multipliers", "order", "operator_mb", "assembly_s",
+           "preconditioner_s", "pdas_steps", "inner_iterations", "inner_per_solve",
+           "solve_s", "contact", "peak_rss_mb", "dense_solve_s", "du_rel", "dlam_rel"]
+
+
+def run_level(level: int, s: float, tol: float, dense_check: int) -> dict:
+    import fracfem as ff
+    from fracfem import examples, vi
+
+    chi = examples.paraboloid_obstacle(1.0, 4.0)
+    vi.mixed_problem("obstacle", ff.disk_uniform(1), s, 1.0, chi=chi,
+                     operator="compressed")  # load the cached kernels
+    coarse = ff.disk_uniform(level)
+    t0 = time.perf_counter()
+    prob = vi.mixed_problem("obstacle", coarse, s, 1.0, chi=chi, operator="compressed",
+                            tol=tol)
+    assembly = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    u, lam, info = vi.solve(prob, "pdas")
+    solve = time.perf_counter() - t1
+    inner = info["inner_iterations"]
+    row = dict(level=level, dofs=prob.disc.A.shape[0], multipliers=len(lam),
+               order=prob.disc.A.info["order"], operator_mb=prob.disc.A.nbytes / 2**20,
+               assembly_s=assembly, preconditioner_s=prob.timings["preconditioner"],
+               pdas_steps=info["iterations"], inner_iterations=int(sum(inner)),
+               inner_per_solve=" ".join(map(str, inner)),
+               solve_s=solve - prob.timings["preconditioner"],
+               contact=int(np.count_nonzero(lam < 0)),
+               peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+    if level <= dense_check:
+        del prob
+        dense = vi.mixed_problem("obstacle", coarse, s, 1.0, chi=chi, operator="dense")
+        t2 = time.perf_counter()
+        ud, lamd, _ = vi.solve(dense, "pdas")
+        row["dense_solve_s"] = time.perf_counter() - t2
+        row["du_rel"] = float(np.abs(u - ud).max() / np.abs(ud).max())
+        row["dlam_rel"] = float(np.abs(lam - lamd).max() / np.abs(lamd).max())
+    return row
+
+
+def markdown(rows: list[dict]) -> str:
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    for r in rows:
+        cells = []
+        for c in COLUMNS:
+            v = r.get(c, "")
+            cells.append(f"{v:.3g}" if isinstance(v, float) else str(v))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--levels", type=int, nargs="+", default=[4, 5, 6])
+    ap.add_argument("--s", type=float, default=0.5)
+    ap.add_argument("--tol", type=float, default=1e-8, help="compression accuracy")
+    ap.add_argument("--dense-check", type=int, default=4,
+                    help="compare with the dense PDAS up to this level")
+    ap.add_argument("--csv", type=Path)
+    ap.add_argument("--md", type=Path)
+    ap.add_argument("--case", type=int, help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.case is not None:
+        print(json.dumps(run_level(args.case, args.s, args.tol, args.dense_check)))
+        return
+    rows = []
+    for level in args.levels:
+        out = subprocess.run([sys.executable, __file__, "--case", str(level), "--s",
+                              str(args.s), "--tol", str(args.tol), "--dense-check",
+                              str(args.dense_check)], capture_output=True, text=True)
+        if out.returncode:
+            sys.stderr.write(out.stderr)
+            raise SystemExit(f"level {level} failed")
+        rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
+        print(json.dumps(rows[-1]), flush=True)
+    table = markdown(rows)
+    print(table)
+    if args.csv:
+        import csv
+        with open(args.csv, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=COLUMNS)
+            w.writeheader()
+            w.writerows(rows)
+    if args.md:
+        args.md.write_text(table)
+
+
+if __name__ == "__main__":
+    main()
