@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.special import gamma, roots_jacobi
 
-from . import _kernels, memory
+from . import _aniso_kernels, _kernels, memory
 from .exact import c2s, check_s
 from .meshes import check_mesh
 from .quadrature import (coincident_rule, edge_rule, gauss01, radial_factor,
@@ -51,6 +51,15 @@ class QuadratureOptions:
     kernel evaluation per pair, error O((h/d)³)) for the farthest class;
     kappa_order: triangle-rule degree for κ away from ∂Ω; kappa_layers and
     kappa_gauss: geometric layers and Gauss points per layer toward ∂Ω.
+
+    Touching pairs whose relative-coordinate faces come closer to the
+    singularity than ``thin_closeness`` times the pair's longest edge
+    (:func:`fracfem._aniso_kernels.pair_closeness`; thin triangles side by
+    side, closeness ~ 1/aspect ratio; shape-regular meshes ≥ 0.24) are
+    integrated by the graded face rules of :mod:`fracfem._aniso_kernels`
+    instead: ``thin_gauss`` Gauss points per panel, panels growing by
+    ``thin_ratio`` away from the points nearest to the singularity.  Their
+    accuracy does not depend on the aspect ratio.
     """
 
     coincident: int = 10
@@ -61,13 +70,23 @@ class QuadratureOptions:
     kappa_order: int = 8
     kappa_layers: int = 6
     kappa_gauss: int = 4
+    thin_closeness: float = 0.3
+    thin_gauss: int = 6
+    thin_ratio: float = 2.0
 
     def __post_init__(self):
         for name in ("coincident", "edge", "vertex", "kappa_order", "kappa_layers",
-                     "kappa_gauss"):
+                     "kappa_gauss", "thin_gauss"):
             val = getattr(self, name)
             if not isinstance(val, (int, np.integer)) or val < 1:
                 raise ValueError(f"QuadratureOptions.{name}={val!r} must be an integer >= 1")
+        if self.thin_gauss > 32:
+            raise ValueError(f"QuadratureOptions.thin_gauss={self.thin_gauss!r} must be <= 32")
+        if not 0.0 <= self.thin_closeness <= 1.0:
+            raise ValueError(f"QuadratureOptions.thin_closeness={self.thin_closeness!r} must be "
+                             "in [0, 1] (0: never use the graded rules of thin pairs)")
+        if not 1.0 < self.thin_ratio <= 8.0:
+            raise ValueError(f"QuadratureOptions.thin_ratio={self.thin_ratio!r} must be in (1, 8]")
         if len(self.far_orders) < 1 or any(not 0 <= o <= 12 for o in self.far_orders):
             raise ValueError(f"QuadratureOptions.far_orders={self.far_orders!r} must be "
                              "one or more triangle-rule degrees in [0, 12] (0: Taylor rule)")
@@ -94,6 +113,9 @@ class QuadratureOptions:
             kappa_order=min(2 * self.kappa_order, 19),
             kappa_layers=2 * self.kappa_layers,
             kappa_gauss=self.kappa_gauss + 4,
+            thin_closeness=min(2.0 * self.thin_closeness, 1.0),
+            thin_gauss=min(self.thin_gauss + 3, 32),
+            thin_ratio=1.0 + 0.5 * (self.thin_ratio - 1.0),
         )
 
 
@@ -152,13 +174,39 @@ _SECOND = {"coincident": np.array([0, 1, 2]), "edge": np.array([0, 1, 3]),
            "vertex": np.array([0, 3, 4])}
 
 
-def _singular_local(p, nodes, kind, n, s):
+_KIND = {"coincident": 0, "edge": 1, "vertex": 2}
+
+
+def _singular_local(p, nodes, kind, n, s, quad=None):
+    """Local matrices (len(nodes), d+1, d+1) of touching pairs of one kind,
+    without c_{2,s}: the fixed rule with n points per face direction, or
+    the graded rules of thin pairs (``quad``, default QuadratureOptions())."""
+    quad = quad or QuadratureOptions()
     rule = {"coincident": coincident_rule, "edge": edge_rule, "vertex": vertex_rule}[kind]
-    zq, wq = rule(n)
     out = np.empty((len(nodes), nodes.shape[1], nodes.shape[1]))
-    if len(nodes):
-        _kernels.singular_pairs(p, nodes, _SECOND[kind], _SIGNS[kind],
-                                np.ascontiguousarray(zq), wq, _AMAT[kind], s, out)
+    if not len(nodes):
+        return out
+    nodes = np.ascontiguousarray(nodes, dtype=np.int64)
+    thin = np.zeros(len(nodes), dtype=bool)
+    if quad.thin_closeness > 0:
+        thin = _aniso_kernels.pair_closeness(p, nodes, _KIND[kind]) < quad.thin_closeness
+    regular = np.flatnonzero(~thin)
+    if regular.size:
+        zq, wq = rule(n)
+        sub = nodes if regular.size == len(nodes) else nodes[regular]
+        loc = np.empty((len(sub), nodes.shape[1], nodes.shape[1]))
+        _kernels.singular_pairs(p, sub, _SECOND[kind], _SIGNS[kind],
+                                np.ascontiguousarray(zq), wq, _AMAT[kind], s, loc)
+        out[regular] = loc
+    if thin.any():
+        gx, gw = gauss01(quad.thin_gauss)
+        loc = np.empty((int(thin.sum()), nodes.shape[1], nodes.shape[1]))
+        _aniso_kernels.thin_singular_pairs(p, nodes[thin], _SECOND[kind], _SIGNS[kind],
+                                           _KIND[kind], _AMAT[kind], s, gx, gw,
+                                           float(quad.thin_ratio), loc)
+        out[thin] = loc
+        log.debug("%d of %d %s pairs by the graded rules of thin pairs",
+                  int(thin.sum()), len(nodes), kind)
     return out * radial_factor(kind, s)
 
 
@@ -388,11 +436,11 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
     edge_nodes, vertex_nodes = touching_pairs(t)
     A = np.zeros((nv, nv))
     # identical pairs: (c/2) Σ_T I_TT; touching pairs: c Σ_{T<T'} I_TT'
-    loc = _singular_local(p, t, "coincident", quad.coincident, s)
+    loc = _singular_local(p, t, "coincident", quad.coincident, s, quad)
     _kernels.scatter_local(A, t, loc, 0.5 * c)
-    loc = _singular_local(p, edge_nodes, "edge", quad.edge, s)
+    loc = _singular_local(p, edge_nodes, "edge", quad.edge, s, quad)
     _kernels.scatter_local(A, edge_nodes, loc, c)
-    loc = _singular_local(p, vertex_nodes, "vertex", quad.vertex, s)
+    loc = _singular_local(p, vertex_nodes, "vertex", quad.vertex, s, quad)
     _kernels.scatter_local(A, vertex_nodes, loc, c)
     tim["singular"] = time.perf_counter() - t0
 
