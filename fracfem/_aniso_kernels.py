@@ -30,23 +30,47 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-_MAXBP = 8          # breakpoints of an outer rule (3 vertices + 2 ends, merged)
+_MAXBP = 8          # breakpoints of an outer rule (3 vertices + 2 ends)
 
 
 @njit(cache=True)
-def _radial(R2, s):  # pragma: no cover
-    """(G0/R², G1/R³, G2/R⁴) for the radial antiderivatives
-    G0 = −R^(−2s)/(2s), G1 = (R^(1−2s) − 1)/(1−2s), G2 = R^(2−2s)/(2−2s)."""
-    lnR = 0.5 * np.log(R2)
-    p = np.exp(-2.0 * s * lnR)                 # R^(−2s)
-    e = 1.0 - 2.0 * s
-    x = e * lnR
-    if abs(x) < 1e-8:
-        G1 = lnR * (1.0 + 0.5 * x)
-    else:
-        G1 = np.expm1(x) / e
-    R = np.sqrt(R2)
-    return -p / (2.0 * s) / R2, G1 / (R2 * R), p / ((2.0 - 2.0 * s) * R2)
+def _ray_moments(r1, r2, s, gx, gw):  # pragma: no cover
+    """(∫ r^(−1−2s), ∫ r^(−2s), ∫ r^(1−2s)) dr over [r1, r2], 0 < r1 ≤ r2:
+    closed forms when r2 > 2 r1, else Gauss–Legendre (no cancellation)."""
+    if r2 <= r1:
+        return 0.0, 0.0, 0.0
+    if r2 > 2.0 * r1:
+        l1 = np.log(r1)
+        l2 = np.log(r2)
+        p1 = np.exp(-2.0 * s * l1)
+        p2 = np.exp(-2.0 * s * l2)
+        e = 1.0 - 2.0 * s
+        x = e * (l2 - l1)
+        if abs(x) < 1e-8:
+            f1 = (l2 - l1) * (1.0 + 0.5 * x)
+        else:
+            f1 = np.expm1(x) / e
+        return (p1 - p2) / (2.0 * s), r1 * p1 * f1, (r2 * r2 * p2 - r1 * r1 * p1) / (2.0 - 2.0 * s)
+    h = r2 - r1
+    i0 = 0.0
+    i1 = 0.0
+    i2 = 0.0
+    rho = h / r1
+    if rho < 0.02:       # 2-point Gauss: relative error ~ rho^4
+        for g in range(2):
+            r = r1 + h * (0.5 + (g - 0.5) * 0.5773502691896258)
+            k = 0.5 * h * np.exp((-1.0 - 2.0 * s) * np.log(r))
+            i0 += k
+            i1 += k * r
+            i2 += k * r * r
+        return i0, i1, i2
+    for g in range(gx.shape[0]):
+        r = r1 + h * gx[g]
+        k = gw[g] * h * np.exp((-1.0 - 2.0 * s) * np.log(r))
+        i0 += k
+        i1 += k * r
+        i2 += k * r * r
+    return i0, i1, i2
 
 
 @njit(cache=True)
@@ -54,36 +78,68 @@ def _tri_moments(v, s, gx, gw, q, K):  # pragma: no cover
     """K = (K0, K1x, K1y, K2xx, K2xy, K2yy) of ∫_Π (1, η, ηηᵀ)|η|^(−2−2s) dη
     for the triangle Π with vertices v (3, 2), 0 outside Π.
 
-    Polar coordinates about 0: Σ_edges d_e ∫ G(R) … /R² dτ with τ the arc
-    length from the foot of the perpendicular (signed distance d_e along the
-    outward normal); the constants of the antiderivatives cancel because 0
-    lies outside Π.  Coordinates are scaled by the largest |v| first.
+    Polar coordinates about 0.  Seen from 0, Π spans less than π; the ray
+    through the middle vertex splits it into two sectors in which every ray
+    enters through one edge and leaves through another.  The angle runs
+    along the entry edge in arc length τ (dθ = |d| dτ / r1², d the distance
+    of its line), graded toward the foot of the perpendicular from 0; the
+    radial integral from entry r1 to exit r2 is exact or Gauss
+    (:func:`_ray_moments`).  Coordinates are scaled by the largest |v|.
     """
     for i in range(6):
         K[i] = 0.0
     L = 0.0
     for i in range(3):
         L = max(L, np.sqrt(v[i, 0] ** 2 + v[i, 1] ** 2))
-    ax, ay = v[0, 0] / L, v[0, 1] / L
-    bx, by = v[1, 0] / L, v[1, 1] / L
-    cx, cy = v[2, 0] / L, v[2, 1] / L
-    if (bx - ax) * (cy - ay) - (cx - ax) * (by - ay) < 0.0:   # make it CCW
-        bx, by, cx, cy = cx, cy, bx, by
+    cx = (v[0, 0] + v[1, 0] + v[2, 0]) / (3.0 * L)
+    cy = (v[0, 1] + v[1, 1] + v[2, 1]) / (3.0 * L)
+    # vertices sorted by angle relative to the centroid direction
+    ang = np.empty(3)
+    for i in range(3):
+        x, y = v[i, 0] / L, v[i, 1] / L
+        ang[i] = np.arctan2(cx * y - cy * x, cx * x + cy * y)
+    o = np.argsort(ang)
+    lo = v[o[0]] / L
+    md = v[o[1]] / L
+    hi = v[o[2]] / L
+    # the ray through md meets the line (lo, hi) at X
+    fx, fy = hi[0] - lo[0], hi[1] - lo[1]
+    den = md[0] * fy - md[1] * fx
+    num = lo[0] * fy - lo[1] * fx
+    lam = num / den if den != 0.0 else np.inf       # X = lam · md
+    mid_in_front = lam > 1.0
+    Xx, Xy = lam * md[0], lam * md[1]
     ng = gx.shape[0]
-    for e in range(3):
-        if e == 0:
-            x0, y0, x1, y1 = ax, ay, bx, by
-        elif e == 1:
-            x0, y0, x1, y1 = bx, by, cx, cy
+    for sector in range(2):
+        if sector == 0:
+            a0x, a0y = lo[0], lo[1]
+            if mid_in_front:     # enter through (lo, md), leave through (lo, hi)
+                a1x, a1y = md[0], md[1]
+                ox, oy, ux, uy = lo[0], lo[1], fx, fy
+            else:                # enter through (lo, X), leave through (lo, md)
+                a1x, a1y = Xx, Xy
+                ox, oy, ux, uy = lo[0], lo[1], md[0] - lo[0], md[1] - lo[1]
         else:
-            x0, y0, x1, y1 = cx, cy, ax, ay
-        ln = np.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2)
-        tx, ty = (x1 - x0) / ln, (y1 - y0) / ln
-        nx, ny = ty, -tx                        # outward for CCW
-        d = x0 * nx + y0 * ny
+            a1x, a1y = hi[0], hi[1]
+            if mid_in_front:
+                a0x, a0y = md[0], md[1]
+                ox, oy, ux, uy = lo[0], lo[1], fx, fy
+            else:
+                a0x, a0y = Xx, Xy
+                ox, oy, ux, uy = md[0], md[1], hi[0] - md[0], hi[1] - md[1]
+        ln = np.sqrt((a1x - a0x) ** 2 + (a1y - a0y) ** 2)
+        if not ln > 0.0:
+            continue
+        tx, ty = (a1x - a0x) / ln, (a1y - a0y) / ln
+        nx, ny = ty, -tx
+        d = a0x * nx + a0y * ny
         if d == 0.0:
             continue
-        ta = x0 * tx + y0 * ty
+        ad = abs(d)
+        # exit line through o with normal m
+        mx, my = uy, -ux
+        om = ox * mx + oy * my
+        ta = a0x * tx + a0y * ty
         tb = ta + ln
         tn = min(max(0.0, ta), tb)
         eps = np.sqrt(d * d + tn * tn)
@@ -99,16 +155,21 @@ def _tri_moments(v, s, gx, gw, q, K):  # pragma: no cover
                 h = b - a
                 for g in range(ng):
                     tau = a + h * gx[g]
-                    wt = abs(h) * gw[g] * d
-                    f0, f1, f2 = _radial(d * d + tau * tau, s)
                     ex = d * nx + tau * tx
                     ey = d * ny + tau * ty
-                    K[0] += wt * f0
-                    K[1] += wt * f1 * ex
-                    K[2] += wt * f1 * ey
-                    K[3] += wt * f2 * ex * ex
-                    K[4] += wt * f2 * ex * ey
-                    K[5] += wt * f2 * ey * ey
+                    r1 = np.sqrt(ex * ex + ey * ey)
+                    ex /= r1
+                    ey /= r1
+                    dm = ex * mx + ey * my
+                    r2 = om / dm if dm != 0.0 else r1
+                    i0, i1, i2 = _ray_moments(r1, max(r2, r1), s, gx, gw)
+                    wt = abs(h) * gw[g] * ad / (r1 * r1)
+                    K[0] += wt * i0
+                    K[1] += wt * i1 * ex
+                    K[2] += wt * i1 * ey
+                    K[3] += wt * i2 * ex * ex
+                    K[4] += wt * i2 * ex * ey
+                    K[5] += wt * i2 * ey * ey
                 a = b
                 w *= q
     K[0] *= L ** (-2.0 * s)
@@ -201,49 +262,12 @@ def _outer_rule(p0x, p0y, vx, vy, cv, nc, gx, gw, q):  # pragma: no cover
         if 0.0 < t < 1.0:
             bp[nb] = t
             nb += 1
-    bp = np.sort(bp[:nb])
-    # merge breakpoints closer than 1e-12
-    keep = np.empty(nb)
-    nk = 0
-    for i in range(nb):
-        if nk == 0 or bp[i] - keep[nk - 1] > 1e-12:
-            keep[nk] = bp[i]
-            nk += 1
-    keep[nk - 1] = 1.0
-    sc = np.empty(nk)
-    for i in range(nk):
+    keep = _unique_sorted(bp, nb)
+    sc = np.empty(keep.shape[0])
+    for i in range(keep.shape[0]):
         t = keep[i]
         sc[i] = _dist_to_set(p0x + t * vx, p0y + t * vy, cv, nc) / vn
-    ng = gx.shape[0]
-    # upper bound of panels: each side log_q(len/scale) + 2
-    npan = 0
-    for i in range(nk - 1):
-        half = 0.5 * (keep[i + 1] - keep[i])
-        for e in (sc[i], sc[i + 1]):
-            r = half / max(e, 1e-300)
-            npan += 2 + (int(np.log(r) / np.log(q)) + 1 if r > 1.0 else 0)
-    T = np.empty(npan * ng)
-    W = np.empty(npan * ng)
-    n = 0
-    for i in range(nk - 1):
-        lo, hi = keep[i], keep[i + 1]
-        mid = 0.5 * (lo + hi)
-        for side in range(2):
-            if side == 0:
-                a, end, sgn, w = lo, mid, 1.0, sc[i]
-            else:
-                a, end, sgn, w = hi, mid, -1.0, sc[i + 1]
-            while sgn * (end - a) > 0.0:
-                rem = sgn * (end - a)
-                b = end if rem <= w * (1.0 + 0.5 * q) else a + sgn * w
-                h = b - a
-                for g in range(ng):
-                    T[n] = a + h * gx[g]
-                    W[n] = abs(h) * gw[g]
-                    n += 1
-                a = b
-                w *= q
-    return T[:n], W[:n]
+    return _composite(keep, sc, gx, gw, q)
 
 
 @njit(cache=True)
@@ -497,3 +521,243 @@ def pair_closeness(p, nodes, kind):  # pragma: no cover
             d = min(d, _seg_tri(Q2[0], Q2[1], R2[0], R2[1], tri))
         out[k] = d / hmax
     return out
+
+
+@njit(cache=True)
+def _composite(bp, sc, gx, gw, q):  # pragma: no cover
+    """Composite Gauss rule on [bp[0], bp[-1]] with breakpoints bp (sorted)
+    and grading scales sc: on each side of a breakpoint the panels start at
+    width sc and grow by q (each interval split halfway)."""
+    # an interior breakpoint whose panels would not be smaller than its
+    # distance to both neighbours grades nothing: drop it
+    keep = np.ones(bp.shape[0], dtype=np.bool_)
+    for i in range(1, bp.shape[0] - 1):
+        if sc[i] >= bp[i] - bp[i - 1] and sc[i] >= bp[i + 1] - bp[i]:
+            keep[i] = False
+    bp = bp[keep]
+    sc = sc[keep]
+    nk = bp.shape[0]
+    ng = gx.shape[0]
+    npan = 0
+    for i in range(nk - 1):
+        half = 0.5 * (bp[i + 1] - bp[i])
+        for e in (sc[i], sc[i + 1]):
+            r = half / max(e, 1e-300)
+            npan += 2 + (int(np.log(r) / np.log(q)) + 1 if r > 1.0 else 0)
+    T = np.empty(npan * ng)
+    W = np.empty(npan * ng)
+    n = 0
+    for i in range(nk - 1):
+        lo, hi = bp[i], bp[i + 1]
+        mid = 0.5 * (lo + hi)
+        for side in range(2):
+            if side == 0:
+                a, end, sgn, w = lo, mid, 1.0, sc[i]
+            else:
+                a, end, sgn, w = hi, mid, -1.0, sc[i + 1]
+            while sgn * (end - a) > 0.0:
+                rem = sgn * (end - a)
+                b = end if rem <= w * (1.0 + 0.5 * q) else a + sgn * w
+                h = b - a
+                for g in range(ng):
+                    T[n] = a + h * gx[g]
+                    W[n] = abs(h) * gw[g]
+                    n += 1
+                a = b
+                w *= q
+    return T[:n], W[:n]
+
+
+@njit(cache=True)
+def _unique_sorted(bp, nb):  # pragma: no cover
+    """Sorted breakpoints in [0, 1] with 0 and 1, merged closer than 1e-12."""
+    b = np.sort(bp[:nb])
+    keep = np.empty(nb)
+    nk = 0
+    for i in range(nb):
+        if nk == 0 or b[i] - keep[nk - 1] > 1e-12:
+            keep[nk] = b[i]
+            nk += 1
+    keep[nk - 1] = 1.0
+    return keep[:nk]
+
+
+@njit(cache=True)
+def _separated_block(PT, PT2, s, gx, gw, q, out):  # pragma: no cover
+    """6 × 6 matrix ∫_T∫_T'(φ_a(x)−φ_a(y))(φ_b(x)−φ_b(y))|x−y|^(−2−2s) of a
+    separated pair (nodes of T, then of T'), for T, T' close compared to
+    their size.
+
+    x ∈ T in slices parallel to T's longest edge AB, x = (1−σ)(A + t(B−A)) + σC;
+    σ and t by composite rules graded toward the slices / points nearest to
+    the vertices of T' (as in :func:`_outer_rule`); for each x the integral
+    over T' in polar coordinates about x (:func:`_tri_moments`).
+    """
+    for a in range(6):
+        for b in range(6):
+            out[a, b] = 0.0
+    # longest edge of T as AB, C opposite
+    best = -1.0
+    ia = 0
+    for i in range(3):
+        j = (i + 1) % 3
+        ln = (PT[j, 0] - PT[i, 0]) ** 2 + (PT[j, 1] - PT[i, 1]) ** 2
+        if ln > best:
+            best = ln
+            ia = i
+    A = PT[ia]
+    B = PT[(ia + 1) % 3]
+    C = PT[(ia + 2) % 3]
+    abx, aby = B[0] - A[0], B[1] - A[1]
+    acx, acy = C[0] - A[0], C[1] - A[1]
+    det = abx * acy - aby * acx          # 2|T| with sign
+    H = abs(det) / np.sqrt(best)         # height of C over AB
+    # barycentric gradients of T (local order) and of T'
+    g = np.empty((6, 2))
+    for k, P in ((0, PT), (3, PT2)):
+        e1x, e1y = P[1, 0] - P[0, 0], P[1, 1] - P[0, 1]
+        e2x, e2y = P[2, 0] - P[0, 0], P[2, 1] - P[0, 1]
+        dd = e1x * e2y - e1y * e2x
+        g[k + 1, 0], g[k + 1, 1] = e2y / dd, -e2x / dd
+        g[k + 2, 0], g[k + 2, 1] = -e1y / dd, e1x / dd
+        g[k, 0] = -g[k + 1, 0] - g[k + 2, 0]
+        g[k, 1] = -g[k + 1, 1] - g[k + 2, 1]
+    # σ breakpoints: the slice through each vertex of T' and the σ where the
+    # slice ends (on AC and BC) pass closest to it; scales from the distances
+    nrmx, nrmy = -aby / np.sqrt(best), abx / np.sqrt(best)
+    if det < 0.0:
+        nrmx, nrmy = -nrmx, -nrmy
+    bcx, bcy = C[0] - B[0], C[1] - B[1]
+    lac = np.sqrt(acx * acx + acy * acy)
+    lbc = np.sqrt(bcx * bcx + bcy * bcy)
+    cand = np.empty(11)
+    cand[0], cand[1] = 0.0, 1.0
+    nb = 2
+    for j in range(3):
+        for sg in (((PT2[j, 0] - A[0]) * nrmx + (PT2[j, 1] - A[1]) * nrmy) / H,
+                   ((PT2[j, 0] - A[0]) * acx + (PT2[j, 1] - A[1]) * acy) / (lac * lac),
+                   ((PT2[j, 0] - B[0]) * bcx + (PT2[j, 1] - B[1]) * bcy) / (lbc * lbc)):
+            if 0.0 < sg < 1.0:
+                cand[nb] = sg
+                nb += 1
+    bps = _unique_sorted(cand, nb)
+    scs = np.empty(bps.shape[0])
+    for i in range(bps.shape[0]):
+        sg = bps[i]
+        sx0, sy0 = A[0] + sg * acx, A[1] + sg * acy
+        sx1, sy1 = B[0] + sg * bcx, B[1] + sg * bcy
+        scs[i] = min(_seg_tri(sx0, sy0, sx1, sy1, PT2) / H,
+                     _dist_to_set(sx0, sy0, PT2, 3) / lac,
+                     _dist_to_set(sx1, sy1, PT2, 3) / lbc)
+    S, WS = _composite(bps, scs, gx, gw, q)
+    K = np.empty(6)
+    tri = np.empty((3, 2))
+    u0 = np.empty(6)
+    u1 = np.empty(6)
+    u2 = np.empty(6)
+    for ks in range(S.shape[0]):
+        sg = S[ks]
+        sx0, sy0 = A[0] + sg * acx, A[1] + sg * acy
+        vx, vy = (1.0 - sg) * abx, (1.0 - sg) * aby
+        Tt, Wt = _outer_rule(sx0, sy0, vx, vy, PT2, 3, gx, gw, q)
+        jac = WS[ks] * (1.0 - sg) * abs(det)
+        for kt in range(Tt.shape[0]):
+            x0 = sx0 + Tt[kt] * vx
+            x1 = sy0 + Tt[kt] * vy
+            for j in range(3):
+                tri[j, 0] = PT2[j, 0] - x0
+                tri[j, 1] = PT2[j, 1] - x1
+            _tri_moments(tri, s, gx, gw, q, K)
+            # U(x, y) = u0 + U1 (y − x): λ_T(x) for T's nodes, −λ_T'(y) for T''s
+            for a in range(3):
+                u0[a] = 1.0 / 3.0 + g[a, 0] * (x0 - (PT[0, 0] + PT[1, 0] + PT[2, 0]) / 3.0) \
+                    + g[a, 1] * (x1 - (PT[0, 1] + PT[1, 1] + PT[2, 1]) / 3.0)
+                u0[3 + a] = -(1.0 / 3.0 + g[3 + a, 0] * (x0 - (PT2[0, 0] + PT2[1, 0] + PT2[2, 0]) / 3.0)
+                              + g[3 + a, 1] * (x1 - (PT2[0, 1] + PT2[1, 1] + PT2[2, 1]) / 3.0))
+                u1[a] = 0.0
+                u2[a] = 0.0
+                u1[3 + a] = -g[3 + a, 0]
+                u2[3 + a] = -g[3 + a, 1]
+            w = jac * Wt[kt]
+            for a in range(6):
+                ca = u1[a] * K[1] + u2[a] * K[2]
+                for b in range(a, 6):
+                    cb = u1[b] * K[1] + u2[b] * K[2]
+                    k2 = (u1[a] * (K[3] * u1[b] + K[4] * u2[b])
+                          + u2[a] * (K[4] * u1[b] + K[5] * u2[b]))
+                    out[a, b] += w * (u0[a] * u0[b] * K[0] + u0[a] * cb + ca * u0[b] + k2)
+    for a in range(6):
+        for b in range(a):
+            out[a, b] = out[b, a]
+
+
+@njit(cache=True, parallel=True)
+def separated_blocks(p, t, pairs, s, gx, gw, q, out):  # pragma: no cover
+    """:func:`_separated_block` for element pairs (m, 2) → out (m, 6, 6)."""
+    for k in prange(pairs.shape[0]):
+        PT = np.empty((3, 2))
+        PT2 = np.empty((3, 2))
+        for i in range(3):
+            for d in range(2):
+                PT[i, d] = p[t[pairs[k, 0], i], d]
+                PT2[i, d] = p[t[pairs[k, 1], i], d]
+        _separated_block(PT, PT2, s, gx, gw, q, out[k])
+
+
+@njit(cache=True, parallel=True)
+def triangle_gaps(p, t, pairs):  # pragma: no cover
+    """Distance between the triangles of each pair (m, 2) (0 if they touch)."""
+    m = pairs.shape[0]
+    out = np.empty(m)
+    for k in prange(m):
+        T, T2 = pairs[k, 0], pairs[k, 1]
+        d = np.inf
+        for a in range(3):
+            A = p[t[T, a]]
+            B = p[t[T, (a + 1) % 3]]
+            for b in range(3):
+                C = p[t[T2, b]]
+                D = p[t[T2, (b + 1) % 3]]
+                d = min(d, _seg_seg(A[0], A[1], B[0], B[1], C[0], C[1], D[0], D[1]))
+        out[k] = d
+    return out
+
+
+@njit(cache=True, parallel=True)
+def far_rule_blocks(t, pairs, cent, diam, qx, qw, lam, offsets, thresholds, s, out):  # pragma: no cover
+    """6 × 6 matrices that :func:`fracfem._kernels.far_pairs` assembles for the
+    separated pairs (m, 2) with its product Gauss levels (same level choice;
+    pairs of the Taylor level must not be passed)."""
+    nlev = offsets.shape[0] - 1
+    expo = -1.0 - s
+    for k in prange(pairs.shape[0]):
+        T, T2 = pairs[k, 0], pairs[k, 1]
+        dx = cent[T, 0] - cent[T2, 0]
+        dy = cent[T, 1] - cent[T2, 1]
+        hm = max(diam[T], diam[T2])
+        r2 = dx * dx + dy * dy
+        lev = nlev - 1
+        for L in range(nlev - 1):
+            if r2 >= thresholds[L] * thresholds[L] * hm * hm:
+                lev = L
+                break
+        q0 = offsets[lev]
+        nq = offsets[lev + 1] - q0
+        for a in range(6):
+            for b in range(6):
+                out[k, a, b] = 0.0
+        for qq in range(nq):
+            for r in range(nq):
+                ex = qx[T, q0 + qq, 0] - qx[T2, q0 + r, 0]
+                ey = qx[T, q0 + qq, 1] - qx[T2, q0 + r, 1]
+                W = qw[T, q0 + qq] * qw[T2, q0 + r] * (ex * ex + ey * ey) ** expo
+                for a in range(3):
+                    la = lam[q0 + qq, a]
+                    ma = lam[q0 + r, a]
+                    for b in range(3):
+                        out[k, a, b] += W * la * lam[q0 + qq, b]
+                        out[k, 3 + a, 3 + b] += W * ma * lam[q0 + r, b]
+                        out[k, a, 3 + b] -= W * la * lam[q0 + r, b]
+        for a in range(3):
+            for b in range(3):
+                out[k, 3 + b, a] = out[k, a, 3 + b]

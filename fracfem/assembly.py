@@ -33,6 +33,8 @@ __all__ = [
     "load_vector",
     "energy",
     "touching_pairs",
+    "close_separated_pairs",
+    "close_pair_corrections",
     "exterior_kernel",
     "mesh_arrays",
     "dense_bytes",
@@ -208,6 +210,60 @@ def _singular_local(p, nodes, kind, n, s, quad=None):
         log.debug("%d of %d %s pairs by the graded rules of thin pairs",
                   int(thin.sum()), len(nodes), kind)
     return out * radial_factor(kind, s)
+
+
+def close_separated_pairs(p, t, quad, geometry=None):
+    """Separated element pairs (m, 2), T < T', closer than ``quad.thin_closeness``
+    times the longer diameter, that :func:`fracfem._kernels.far_pairs` puts in
+    a product Gauss class (not the Taylor class); their gaps relative to that
+    diameter.  Empty when ``thin_closeness`` is 0."""
+    from scipy.spatial import cKDTree
+
+    empty = np.zeros((0, 2), dtype=np.int64)
+    if quad.thin_closeness <= 0 or len(t) < 2:
+        return empty, np.zeros(0)
+    area2, cent, diam = _element_geometry(p, t) if geometry is None else geometry
+    # gap < c·hmax needs |c_T − c_T'| < (c + 4/3)·hmax: search from the larger element
+    tree = cKDTree(cent)
+    lists = tree.query_ball_point(cent, r=(quad.thin_closeness + 4.0 / 3.0) * diam)
+    cnt = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
+    i = np.repeat(np.arange(len(t)), cnt)
+    j = np.fromiter((k for x in lists for k in x), dtype=np.int64, count=int(cnt.sum()))
+    pairs = np.unique(np.sort(np.column_stack([i, j]), axis=1), axis=0)
+    pairs = pairs[pairs[:, 0] < pairs[:, 1]]
+    a, b = t[pairs[:, 0]], t[pairs[:, 1]]
+    pairs = pairs[~(a[:, :, None] == b[:, None, :]).any(axis=(1, 2))]
+    if not len(pairs):
+        return empty, np.zeros(0)
+    hm = np.maximum(diam[pairs[:, 0]], diam[pairs[:, 1]])
+    gap = _aniso_kernels.triangle_gaps(p, t, np.ascontiguousarray(pairs)) / hm
+    d2 = np.sum((cent[pairs[:, 0]] - cent[pairs[:, 1]]) ** 2, axis=1)
+    sel = gap < quad.thin_closeness
+    if quad.far_orders[0] == 0 and len(quad.far_thresholds):
+        sel &= d2 < (quad.far_thresholds[0] * hm) ** 2
+    return np.ascontiguousarray(pairs[sel]), gap[sel]
+
+
+def close_pair_corrections(p, t, s, quad, geometry=None):
+    """(pairs (m, 2), local (m, 6, 6)) to add, times c_{2,s}, to the matrix of
+    :func:`fracfem._kernels.far_pairs`: for the separated pairs of
+    :func:`close_separated_pairs`, the graded rule of thin pairs
+    (:func:`fracfem._aniso_kernels.separated_blocks`) minus the product Gauss
+    rule that far_pairs used.  Local order: the nodes of T, then of T'."""
+    pairs, _ = close_separated_pairs(p, t, quad, geometry)
+    loc = np.zeros((len(pairs), 6, 6))
+    if not len(pairs):
+        return pairs, loc
+    area2, cent, diam = _element_geometry(p, t) if geometry is None else geometry
+    gx, gw = gauss01(quad.thin_gauss)
+    _aniso_kernels.separated_blocks(p, t, pairs, s, gx, gw, float(quad.thin_ratio), loc)
+    # the product rules of far_pairs, only the Gauss levels
+    qx, qw, lam, offs = _far_rules(p, t, quad.far_orders, area2)
+    std = np.empty_like(loc)
+    _aniso_kernels.far_rule_blocks(t, pairs, cent, diam, qx, qw, lam, offs,
+                                   np.asarray(quad.far_thresholds, dtype=np.float64), s, std)
+    log.debug("%d close separated pairs by the graded rules of thin pairs", len(pairs))
+    return pairs, loc - std
 
 
 def _element_geometry(p, t):
@@ -468,6 +524,13 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
               + D[:, 3, None, None] * np.einsum("tad,tde,tbe->tab", grad, Imat, grad))
     _kernels.scatter_local(A, t, E, c)
     tim["far"] = time.perf_counter() - t1
+
+    t3 = time.perf_counter()
+    pairs, corr = close_pair_corrections(p, t, s, quad, geometry)
+    if len(pairs):
+        _kernels.scatter_local(A, np.ascontiguousarray(np.hstack([t[pairs[:, 0]], t[pairs[:, 1]]])),
+                               corr, c)
+    tim["close"] = time.perf_counter() - t3
 
     t2 = time.perf_counter()
     K = _kappa_local(p, t, bnodes, edges, s, quad, geometry)
