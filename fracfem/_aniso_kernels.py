@@ -56,10 +56,20 @@ def _ray_moments(r1, r2, s, gx, gw):  # pragma: no cover
     i1 = 0.0
     i2 = 0.0
     rho = h / r1
-    if rho < 0.02:       # 2-point Gauss: relative error ~ rho^4
+    if rho < 0.02:       # 2-point Gauss: relative error ~ (rho/4)^4
         for g in range(2):
             r = r1 + h * (0.5 + (g - 0.5) * 0.5773502691896258)
             k = 0.5 * h * np.exp((-1.0 - 2.0 * s) * np.log(r))
+            i0 += k
+            i1 += k * r
+            i2 += k * r * r
+        return i0, i1, i2
+    if rho < 0.3:        # 3-point Gauss: relative error ~ (rho/4)^6
+        for g in range(3):
+            x = 0.7745966692414834 * (g - 1)
+            r = r1 + h * 0.5 * (1.0 + x)
+            k = (0.4444444444444444 if g == 1 else 0.2777777777777778) * h \
+                * np.exp((-1.0 - 2.0 * s) * np.log(r))
             i0 += k
             i1 += k * r
             i2 += k * r * r
@@ -549,6 +559,12 @@ def _composite(bp, sc, gx, gw, q):  # pragma: no cover
     n = 0
     for i in range(nk - 1):
         lo, hi = bp[i], bp[i + 1]
+        if sc[i] >= hi - lo and sc[i + 1] >= hi - lo:     # one panel suffices
+            for g in range(ng):
+                T[n] = lo + (hi - lo) * gx[g]
+                W[n] = (hi - lo) * gw[g]
+                n += 1
+            continue
         mid = 0.5 * (lo + hi)
         for side in range(2):
             if side == 0:
@@ -588,30 +604,53 @@ def _separated_block(PT, PT2, s, gx, gw, q, out):  # pragma: no cover
     separated pair (nodes of T, then of T'), for T, T' close compared to
     their size.
 
-    x ∈ T in slices parallel to T's longest edge AB, x = (1−σ)(A + t(B−A)) + σC;
-    σ and t by composite rules graded toward the slices / points nearest to
-    the vertices of T' (as in :func:`_outer_rule`); for each x the integral
-    over T' in polar coordinates about x (:func:`_tri_moments`).
+    x ∈ T in Duffy coordinates from the vertex opposite the shortest edge,
+    both by composite rules graded toward the rays / points passing nearest
+    to the vertices of T' (as in :func:`_outer_rule`); for each x the
+    integral over T' in polar coordinates about x (:func:`_tri_moments`).
     """
     for a in range(6):
         for b in range(6):
             out[a, b] = 0.0
-    # longest edge of T as AB, C opposite
-    best = -1.0
-    ia = 0
+    # Duffy coordinates from the vertex X0 opposite the shortest edge Y0Y1:
+    # x = X0 + ρ((1−θ)Y0 + θY1 − X0), dx = 2|T| ρ dρ dθ; for a thin triangle
+    # the ray ends move along the short edge only
+    best = np.inf
+    i0 = 0
     for i in range(3):
         j = (i + 1) % 3
         ln = (PT[j, 0] - PT[i, 0]) ** 2 + (PT[j, 1] - PT[i, 1]) ** 2
-        if ln > best:
+        if ln < best:
             best = ln
-            ia = i
-    A = PT[ia]
-    B = PT[(ia + 1) % 3]
-    C = PT[(ia + 2) % 3]
-    abx, aby = B[0] - A[0], B[1] - A[1]
-    acx, acy = C[0] - A[0], C[1] - A[1]
-    det = abx * acy - aby * acx          # 2|T| with sign
-    H = abs(det) / np.sqrt(best)         # height of C over AB
+            i0 = i
+    Y0 = PT[i0]
+    Y1 = PT[(i0 + 1) % 3]
+    X0 = PT[(i0 + 2) % 3]
+    yx, yy = Y1[0] - Y0[0], Y1[1] - Y0[1]
+    ly = np.sqrt(best)
+    det = abs((Y0[0] - X0[0]) * yy - (Y0[1] - X0[1]) * yx)      # 2|T|
+    # θ breakpoints: rays through the vertices of T', ray ends nearest to them
+    cand = np.empty(8)
+    cand[0], cand[1] = 0.0, 1.0
+    nb = 2
+    for j in range(3):
+        vx, vy = PT2[j, 0] - X0[0], PT2[j, 1] - X0[1]
+        den = vx * yy - vy * yx
+        if den != 0.0:
+            th = ((Y0[0] - X0[0]) * vy - (Y0[1] - X0[1]) * vx) / den
+            if 0.0 < th < 1.0:
+                cand[nb] = th
+                nb += 1
+        th = ((PT2[j, 0] - Y0[0]) * yx + (PT2[j, 1] - Y0[1]) * yy) / best
+        if 0.0 < th < 1.0:
+            cand[nb] = th
+            nb += 1
+    bps = _unique_sorted(cand, nb)
+    scs = np.empty(bps.shape[0])
+    for i in range(bps.shape[0]):
+        ex, ey = Y0[0] + bps[i] * yx, Y0[1] + bps[i] * yy
+        scs[i] = _seg_tri(X0[0], X0[1], ex, ey, PT2) / ly
+    S, WS = _composite(bps, scs, gx, gw, q)
     # barycentric gradients of T (local order) and of T'
     g = np.empty((6, 2))
     for k, P in ((0, PT), (3, PT2)):
@@ -622,48 +661,20 @@ def _separated_block(PT, PT2, s, gx, gw, q, out):  # pragma: no cover
         g[k + 2, 0], g[k + 2, 1] = -e1y / dd, e1x / dd
         g[k, 0] = -g[k + 1, 0] - g[k + 2, 0]
         g[k, 1] = -g[k + 1, 1] - g[k + 2, 1]
-    # σ breakpoints: the slice through each vertex of T' and the σ where the
-    # slice ends (on AC and BC) pass closest to it; scales from the distances
-    nrmx, nrmy = -aby / np.sqrt(best), abx / np.sqrt(best)
-    if det < 0.0:
-        nrmx, nrmy = -nrmx, -nrmy
-    bcx, bcy = C[0] - B[0], C[1] - B[1]
-    lac = np.sqrt(acx * acx + acy * acy)
-    lbc = np.sqrt(bcx * bcx + bcy * bcy)
-    cand = np.empty(11)
-    cand[0], cand[1] = 0.0, 1.0
-    nb = 2
-    for j in range(3):
-        for sg in (((PT2[j, 0] - A[0]) * nrmx + (PT2[j, 1] - A[1]) * nrmy) / H,
-                   ((PT2[j, 0] - A[0]) * acx + (PT2[j, 1] - A[1]) * acy) / (lac * lac),
-                   ((PT2[j, 0] - B[0]) * bcx + (PT2[j, 1] - B[1]) * bcy) / (lbc * lbc)):
-            if 0.0 < sg < 1.0:
-                cand[nb] = sg
-                nb += 1
-    bps = _unique_sorted(cand, nb)
-    scs = np.empty(bps.shape[0])
-    for i in range(bps.shape[0]):
-        sg = bps[i]
-        sx0, sy0 = A[0] + sg * acx, A[1] + sg * acy
-        sx1, sy1 = B[0] + sg * bcx, B[1] + sg * bcy
-        scs[i] = min(_seg_tri(sx0, sy0, sx1, sy1, PT2) / H,
-                     _dist_to_set(sx0, sy0, PT2, 3) / lac,
-                     _dist_to_set(sx1, sy1, PT2, 3) / lbc)
-    S, WS = _composite(bps, scs, gx, gw, q)
     K = np.empty(6)
     tri = np.empty((3, 2))
     u0 = np.empty(6)
     u1 = np.empty(6)
     u2 = np.empty(6)
     for ks in range(S.shape[0]):
-        sg = S[ks]
-        sx0, sy0 = A[0] + sg * acx, A[1] + sg * acy
-        vx, vy = (1.0 - sg) * abx, (1.0 - sg) * aby
+        th = S[ks]
+        sx0, sy0 = X0[0], X0[1]
+        vx, vy = Y0[0] + th * yx - sx0, Y0[1] + th * yy - sy0
         Tt, Wt = _outer_rule(sx0, sy0, vx, vy, PT2, 3, gx, gw, q)
-        jac = WS[ks] * (1.0 - sg) * abs(det)
         for kt in range(Tt.shape[0]):
             x0 = sx0 + Tt[kt] * vx
             x1 = sy0 + Tt[kt] * vy
+            jac = WS[ks] * Tt[kt] * det
             for j in range(3):
                 tri[j, 0] = PT2[j, 0] - x0
                 tri[j, 1] = PT2[j, 1] - x1

@@ -73,7 +73,7 @@ class QuadratureOptions:
     kappa_layers: int = 6
     kappa_gauss: int = 4
     thin_closeness: float = 0.3
-    thin_gauss: int = 6
+    thin_gauss: int = 5
     thin_ratio: float = 2.0
 
     def __post_init__(self):
