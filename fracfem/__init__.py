@@ -7,7 +7,7 @@ the elliptic variational inequalities in mixed form (Problem 5.15) with their
 solvers, a posteriori indicators and Algorithm B, and the parabolic problems
 (DG(0) in time, Problem 6.11) with their indicators and Algorithm C.
 """
-from .meshes import (disk_graded, disk_graded_rings, disk_uniform, lshape,
+from .meshes import (disk_graded, disk_graded_aniso, disk_graded_rings, disk_uniform, lshape,
                      refine_disk, square)
 
 from .assembly import (QuadratureOptions, energy, exterior_kernel, load_vector,
@@ -45,7 +45,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     # meshes
-    "disk_uniform", "disk_graded", "disk_graded_rings", "square", "lshape", "refine_disk",
+    "disk_uniform", "disk_graded", "disk_graded_aniso", "disk_graded_rings", "square", "lshape", "refine_disk",
     # the fractional Laplacian: assembly, exact solutions, the unconstrained problem
     "QuadratureOptions", "stiffness_matrix", "load_vector", "energy", "exterior_kernel",
     "c2s", "disk_energy", "disk_solution", "disk_solution_constant",

@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.special import gamma, roots_jacobi
 
-from . import _kernels, memory
+from . import _aniso_kernels, _kernels, memory
 from .exact import c2s, check_s
 from .meshes import check_mesh
 from .quadrature import (coincident_rule, edge_rule, gauss01, radial_factor,
@@ -33,6 +33,8 @@ __all__ = [
     "load_vector",
     "energy",
     "touching_pairs",
+    "close_separated_pairs",
+    "close_pair_corrections",
     "exterior_kernel",
     "mesh_arrays",
     "dense_bytes",
@@ -51,6 +53,15 @@ class QuadratureOptions:
     kernel evaluation per pair, error O((h/d)³)) for the farthest class;
     kappa_order: triangle-rule degree for κ away from ∂Ω; kappa_layers and
     kappa_gauss: geometric layers and Gauss points per layer toward ∂Ω.
+
+    Touching pairs whose relative-coordinate faces come closer to the
+    singularity than ``thin_closeness`` times the pair's longest edge
+    (:func:`fracfem._aniso_kernels.pair_closeness`; thin triangles side by
+    side, closeness ~ 1/aspect ratio; shape-regular meshes ≥ 0.24) are
+    integrated by the graded face rules of :mod:`fracfem._aniso_kernels`
+    instead: ``thin_gauss`` Gauss points per panel, panels growing by
+    ``thin_ratio`` away from the points nearest to the singularity.  Their
+    accuracy does not depend on the aspect ratio.
     """
 
     coincident: int = 10
@@ -61,13 +72,23 @@ class QuadratureOptions:
     kappa_order: int = 8
     kappa_layers: int = 6
     kappa_gauss: int = 4
+    thin_closeness: float = 0.3
+    thin_gauss: int = 5
+    thin_ratio: float = 2.0
 
     def __post_init__(self):
         for name in ("coincident", "edge", "vertex", "kappa_order", "kappa_layers",
-                     "kappa_gauss"):
+                     "kappa_gauss", "thin_gauss"):
             val = getattr(self, name)
             if not isinstance(val, (int, np.integer)) or val < 1:
                 raise ValueError(f"QuadratureOptions.{name}={val!r} must be an integer >= 1")
+        if self.thin_gauss > 32:
+            raise ValueError(f"QuadratureOptions.thin_gauss={self.thin_gauss!r} must be <= 32")
+        if not 0.0 <= self.thin_closeness <= 1.0:
+            raise ValueError(f"QuadratureOptions.thin_closeness={self.thin_closeness!r} must be "
+                             "in [0, 1] (0: never use the graded rules of thin pairs)")
+        if not 1.0 < self.thin_ratio <= 8.0:
+            raise ValueError(f"QuadratureOptions.thin_ratio={self.thin_ratio!r} must be in (1, 8]")
         if len(self.far_orders) < 1 or any(not 0 <= o <= 12 for o in self.far_orders):
             raise ValueError(f"QuadratureOptions.far_orders={self.far_orders!r} must be "
                              "one or more triangle-rule degrees in [0, 12] (0: Taylor rule)")
@@ -94,6 +115,9 @@ class QuadratureOptions:
             kappa_order=min(2 * self.kappa_order, 19),
             kappa_layers=2 * self.kappa_layers,
             kappa_gauss=self.kappa_gauss + 4,
+            thin_closeness=min(2.0 * self.thin_closeness, 1.0),
+            thin_gauss=min(self.thin_gauss + 3, 32),
+            thin_ratio=1.0 + 0.5 * (self.thin_ratio - 1.0),
         )
 
 
@@ -152,14 +176,94 @@ _SECOND = {"coincident": np.array([0, 1, 2]), "edge": np.array([0, 1, 3]),
            "vertex": np.array([0, 3, 4])}
 
 
-def _singular_local(p, nodes, kind, n, s):
+_KIND = {"coincident": 0, "edge": 1, "vertex": 2}
+
+
+def _singular_local(p, nodes, kind, n, s, quad=None):
+    """Local matrices (len(nodes), d+1, d+1) of touching pairs of one kind,
+    without c_{2,s}: the fixed rule with n points per face direction, or
+    the graded rules of thin pairs (``quad``, default QuadratureOptions())."""
+    quad = quad or QuadratureOptions()
     rule = {"coincident": coincident_rule, "edge": edge_rule, "vertex": vertex_rule}[kind]
-    zq, wq = rule(n)
     out = np.empty((len(nodes), nodes.shape[1], nodes.shape[1]))
-    if len(nodes):
-        _kernels.singular_pairs(p, nodes, _SECOND[kind], _SIGNS[kind],
-                                np.ascontiguousarray(zq), wq, _AMAT[kind], s, out)
+    if not len(nodes):
+        return out
+    nodes = np.ascontiguousarray(nodes, dtype=np.int64)
+    thin = np.zeros(len(nodes), dtype=bool)
+    if quad.thin_closeness > 0:
+        thin = _aniso_kernels.pair_closeness(p, nodes, _KIND[kind]) < quad.thin_closeness
+    regular = np.flatnonzero(~thin)
+    if regular.size:
+        zq, wq = rule(n)
+        sub = nodes if regular.size == len(nodes) else nodes[regular]
+        loc = np.empty((len(sub), nodes.shape[1], nodes.shape[1]))
+        _kernels.singular_pairs(p, sub, _SECOND[kind], _SIGNS[kind],
+                                np.ascontiguousarray(zq), wq, _AMAT[kind], s, loc)
+        out[regular] = loc
+    if thin.any():
+        gx, gw = gauss01(quad.thin_gauss)
+        loc = np.empty((int(thin.sum()), nodes.shape[1], nodes.shape[1]))
+        _aniso_kernels.thin_singular_pairs(p, nodes[thin], _SECOND[kind], _SIGNS[kind],
+                                           _KIND[kind], _AMAT[kind], s, gx, gw,
+                                           float(quad.thin_ratio), loc)
+        out[thin] = loc
+        log.debug("%d of %d %s pairs by the graded rules of thin pairs",
+                  int(thin.sum()), len(nodes), kind)
     return out * radial_factor(kind, s)
+
+
+def close_separated_pairs(p, t, quad, geometry=None):
+    """Separated element pairs (m, 2), T < T', closer than ``quad.thin_closeness``
+    times the longer diameter, that :func:`fracfem._kernels.far_pairs` puts in
+    a product Gauss class (not the Taylor class); their gaps relative to that
+    diameter.  Empty when ``thin_closeness`` is 0."""
+    from scipy.spatial import cKDTree
+
+    empty = np.zeros((0, 2), dtype=np.int64)
+    if quad.thin_closeness <= 0 or len(t) < 2:
+        return empty, np.zeros(0)
+    area2, cent, diam = _element_geometry(p, t) if geometry is None else geometry
+    # gap < c·hmax needs |c_T − c_T'| < (c + 4/3)·hmax: search from the larger element
+    tree = cKDTree(cent)
+    lists = tree.query_ball_point(cent, r=(quad.thin_closeness + 4.0 / 3.0) * diam)
+    cnt = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
+    i = np.repeat(np.arange(len(t)), cnt)
+    j = np.fromiter((k for x in lists for k in x), dtype=np.int64, count=int(cnt.sum()))
+    pairs = np.unique(np.sort(np.column_stack([i, j]), axis=1), axis=0)
+    pairs = pairs[pairs[:, 0] < pairs[:, 1]]
+    a, b = t[pairs[:, 0]], t[pairs[:, 1]]
+    pairs = pairs[~(a[:, :, None] == b[:, None, :]).any(axis=(1, 2))]
+    if not len(pairs):
+        return empty, np.zeros(0)
+    hm = np.maximum(diam[pairs[:, 0]], diam[pairs[:, 1]])
+    gap = _aniso_kernels.triangle_gaps(p, t, np.ascontiguousarray(pairs)) / hm
+    d2 = np.sum((cent[pairs[:, 0]] - cent[pairs[:, 1]]) ** 2, axis=1)
+    sel = gap < quad.thin_closeness
+    if quad.far_orders[0] == 0 and len(quad.far_thresholds):
+        sel &= d2 < (quad.far_thresholds[0] * hm) ** 2
+    return np.ascontiguousarray(pairs[sel]), gap[sel]
+
+
+def close_pair_corrections(p, t, s, quad, geometry=None):
+    """(pairs (m, 2), local (m, 6, 6)) to add, times c_{2,s}, to the matrix of
+    :func:`fracfem._kernels.far_pairs`: for the separated pairs of
+    :func:`close_separated_pairs`, the graded rule of thin pairs
+    (:func:`fracfem._aniso_kernels.separated_blocks`) minus the product Gauss
+    rule that far_pairs used.  Local order: the nodes of T, then of T'."""
+    pairs, _ = close_separated_pairs(p, t, quad, geometry)
+    loc = np.zeros((len(pairs), 6, 6))
+    if not len(pairs):
+        return pairs, loc
+    area2, cent, diam = _element_geometry(p, t) if geometry is None else geometry
+    gx, gw = gauss01(quad.thin_gauss)
+    _aniso_kernels.separated_blocks(p, t, pairs, s, gx, gw, float(quad.thin_ratio), loc)
+    # the product rules of far_pairs, only the Gauss levels
+    qx, qw, lam, offs = _far_rules(p, t, quad.far_orders, area2)
+    std = np.empty_like(loc)
+    _aniso_kernels.far_rule_blocks(t, pairs, cent, diam, qx, qw, lam, offs,
+                                   np.asarray(quad.far_thresholds, dtype=np.float64), s, std)
+    log.debug("%d close separated pairs by the graded rules of thin pairs", len(pairs))
+    return pairs, loc - std
 
 
 def _element_geometry(p, t):
@@ -393,11 +497,11 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
     edge_nodes, vertex_nodes = touching_pairs(t)
     A = np.zeros((nv, nv))
     # identical pairs: (c/2) Σ_T I_TT; touching pairs: c Σ_{T<T'} I_TT'
-    loc = _singular_local(p, t, "coincident", quad.coincident, s)
+    loc = _singular_local(p, t, "coincident", quad.coincident, s, quad)
     _kernels.scatter_local(A, t, loc, 0.5 * c)
-    loc = _singular_local(p, edge_nodes, "edge", quad.edge, s)
+    loc = _singular_local(p, edge_nodes, "edge", quad.edge, s, quad)
     _kernels.scatter_local(A, edge_nodes, loc, c)
-    loc = _singular_local(p, vertex_nodes, "vertex", quad.vertex, s)
+    loc = _singular_local(p, vertex_nodes, "vertex", quad.vertex, s, quad)
     _kernels.scatter_local(A, vertex_nodes, loc, c)
     tim["singular"] = time.perf_counter() - t0
 
@@ -425,6 +529,13 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
               + D[:, 3, None, None] * np.einsum("tad,tde,tbe->tab", grad, Imat, grad))
     _kernels.scatter_local(A, t, E, c)
     tim["far"] = time.perf_counter() - t1
+
+    t3 = time.perf_counter()
+    pairs, corr = close_pair_corrections(p, t, s, quad, geometry)
+    if len(pairs):
+        _kernels.scatter_local(A, np.ascontiguousarray(np.hstack([t[pairs[:, 0]], t[pairs[:, 1]]])),
+                               corr, c)
+    tim["close"] = time.perf_counter() - t3
 
     t2 = time.perf_counter()
     K = _kappa_local(p, t, bnodes, edges, s, quad, geometry)

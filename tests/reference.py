@@ -486,3 +486,197 @@ def stiffness_matrix_reference(mesh, s, quadrature=None, *, parts=False, **kappa
     A[bnodes, :] = np.nan
     A[:, bnodes] = np.nan
     return A
+
+
+# --------------------------------------------------------------------------
+# thin (anisotropic) element pairs
+#
+# Written independently of fracfem._aniso_kernels: integrals over a triangle
+# near a point are done in collapsed coordinates about the point of the
+# triangle nearest to it, geometrically graded down to a fraction of the
+# distance (no polar coordinates about the singularity, no arc-length rules);
+# the outer variables of the relative-coordinate faces by scipy's adaptive
+# Gauss–Kronrod rules.
+
+
+def _nearest_on_segment(x, a, b):
+    d = b - a
+    t = np.clip((x - a) @ d / (d @ d), 0.0, 1.0)
+    return a + t * d
+
+
+def _nearest_on_triangle(x, V):
+    """Point of the triangle V (3, 2) nearest to x (x outside V)."""
+    cands = [_nearest_on_segment(x, V[i], V[(i + 1) % 3]) for i in range(3)]
+    return min(cands, key=lambda y: np.sum((y - x) ** 2))
+
+
+def _graded_layers(n, small, sigma):
+    """Composite Gauss rule on [0, 1] graded geometrically toward 0 down to
+    panels of width below ``small``."""
+    g, w = _gauss01(n)
+    layers = max(int(np.ceil(np.log(1.0 / max(small, 1e-300)) / np.log(1 / sigma))), 1)
+    br = np.concatenate([[0.0], sigma ** np.arange(layers, -1, -1.0)])
+    return (np.concatenate([a + (b - a) * g for a, b in zip(br[:-1], br[1:])]),
+            np.concatenate([(b - a) * w for a, b in zip(br[:-1], br[1:])]))
+
+
+def _graded_triangle_rule(V, y0, dist, n=10, sigma=0.25, extra=4):
+    """Points (m, 2) and weights covering the triangle V in collapsed
+    coordinates about its point y0: per edge BC two sub-triangles (y0, F, B),
+    (y0, F, C) with F the point of BC nearest to y0; radial variable graded
+    toward y0 down to sigma^extra · dist, the variable along BC graded toward
+    F down to sigma^extra · (distance of y0 from BC) / |FB|."""
+    pts, wts = [], []
+    for i in range(3):
+        B0, C0 = V[i], V[(i + 1) % 3]
+        F = _nearest_on_segment(y0, B0, C0)
+        hgt = np.linalg.norm(F - y0)
+        for B in (B0, C0):
+            lb = np.linalg.norm(B - F)
+            area2 = abs((F[0] - y0[0]) * (B[1] - y0[1]) - (B[0] - y0[0]) * (F[1] - y0[1]))
+            if lb == 0.0 or area2 <= 1e-15 * lb * lb:
+                continue
+            size = max(hgt, np.linalg.norm(B - y0))
+            rho, wr = _graded_layers(n, sigma ** extra * dist / size, sigma)
+            th, wt = _graded_layers(n, sigma ** extra * max(hgt, dist) / lb, sigma)
+            R, TH = np.meshgrid(rho, th, indexing="ij")
+            Y = y0 + R.ravel()[:, None] * ((1 - TH.ravel())[:, None] * F
+                                           + TH.ravel()[:, None] * B - y0)
+            pts.append(Y)
+            wts.append((np.outer(wr, wt) * R).ravel() * area2)
+    return np.vstack(pts), np.concatenate(wts)
+
+
+def triangle_moments_reference(V, s, n=8):
+    """(K0, K1x, K1y, K2xx, K2xy, K2yy) of ∫_V (1, η, ηηᵀ)|η|^(−2−2s) dη for
+    a triangle V (3, 2) not containing 0, by collapsed coordinates graded
+    toward the point of V nearest to 0."""
+    V = np.asarray(V, dtype=float)
+    y0 = _nearest_on_triangle(np.zeros(2), V)
+    Y, W = _graded_triangle_rule(V, y0, np.linalg.norm(y0), n=n)
+    k = W * np.sum(Y * Y, axis=1) ** (-1.0 - s)
+    return np.array([k.sum(), k @ Y[:, 0], k @ Y[:, 1], k @ Y[:, 0] ** 2,
+                     k @ (Y[:, 0] * Y[:, 1]), k @ Y[:, 1] ** 2])
+
+
+def _quad_split(f, cuts, epsrel=1e-9):
+    """∫_0^1 f (array-valued) by scipy quad_vec on [0, 1] split at cuts."""
+    from scipy.integrate import quad_vec
+
+    br = np.unique(np.clip(np.concatenate([[0.0, 1.0], cuts]), 0.0, 1.0))
+    return sum(quad_vec(f, a, b, epsrel=epsrel, epsabs=0.0)[0]
+               for a, b in zip(br[:-1], br[1:]) if b > a)
+
+
+def _nearest_params(p0, v, pts):
+    """Parameters t of p0 + t v nearest to each point (for breakpoints)."""
+    return np.array([(q - p0) @ v / (v @ v) for q in pts])
+
+
+def _face_polar(M, w0, ia, sa, ib, sb, G, eta0, s, n=8):
+    """∫_τ̂ w wᵀ |Mw|^(−2−2s) da db over a face w = w0 + a sa e_ia + b sb e_ib
+    with image η0 + G τ̂, by the change of variables to η and
+    triangle_moments_reference (d × d)."""
+    d = len(w0)
+    Gi = np.linalg.inv(G)
+    C = np.zeros((d, 2))
+    C[ia], C[ib] = sa * Gi[0], sb * Gi[1]
+    c = w0 - C @ eta0
+    K = triangle_moments_reference(np.array([eta0, eta0 + G[:, 0], eta0 + G[:, 1]]), s, n=n)
+    K1 = K[1:3]
+    K2 = np.array([[K[3], K[4]], [K[4], K[5]]])
+    return (np.outer(c, c) * K[0] + np.outer(c, C @ K1) + np.outer(C @ K1, c)
+            + C @ K2 @ C.T) / abs(np.linalg.det(G))
+
+
+def thin_face_integral_reference(M, kind, s, epsrel=1e-9, n=8):
+    """Z = ∫_faces w wᵀ |Mw|^(−2−2s) dσ of the relative-coordinate rule
+    ``kind`` (faces and weights as in fracfem.quadrature) for the pair matrix
+    M (2, d), by adaptive quadrature (relative tolerance epsrel) and
+    triangle_moments_reference (n points per panel)."""
+    M = np.asarray(M, dtype=float)
+    kern = lambda eta: np.sum(eta * eta, axis=-1) ** (-1.0 - s)   # noqa: E731
+    if kind == "coincident":
+        hv = np.array([[1.0, 0], [0, 1], [-1, 1], [-1, 0], [0, -1], [1, -1]])
+        Z = np.zeros((2, 2))
+        for i in range(6):
+            a, e = hv[i], hv[(i + 1) % 6] - hv[i]
+            f = lambda u: np.outer(a + u * e, a + u * e) * kern(M @ (a + u * e))  # noqa: E731
+            Z += 0.5 * _quad_split(f, _nearest_params(-M @ a, M @ e, [np.zeros(2)]))
+        return Z
+    if kind == "edge":
+        Z = np.zeros((3, 3))
+        for w0, eU, eV in (((1.0, 0, 0), (-1.0, 1, 0), (0, 0, 1.0)),
+                           ((-1.0, 0, 0), (1.0, 0, 1), (0, 1.0, 0))):
+            w0, eU, eV = map(np.array, (w0, eU, eV))
+
+            def inner(U):
+                c = w0 + U * eU
+                f = lambda V: np.outer(c + V * eV, c + V * eV) * kern(M @ (c + V * eV))  # noqa: E731
+                return _quad_split(f, _nearest_params(-M @ c, M @ eV, [np.zeros(2)]), epsrel)
+            Z += _quad_split(inner, _nearest_params(-M @ w0, -M @ eU,
+                                                    [np.zeros(2), M @ eV]), epsrel)
+        G = M[:, :2]
+        Z += _face_polar(M, np.array([0, 0, 1.0]), 0, 1.0, 1, 1.0, G, M[:, 2], s, n=n)
+        G = np.column_stack([-M[:, 0], M[:, 2]])
+        Z += _face_polar(M, np.array([0, 1.0, 0]), 0, -1.0, 2, 1.0, G, M[:, 1], s, n=n)
+        return Z
+    Z = np.zeros((4, 4))
+    for k0, k1, f0, f1 in ((0, 1, 2, 3), (2, 3, 0, 1)):
+        G = M[:, [f0, f1]]
+
+        def half(t):
+            w0 = np.zeros(4)
+            w0[k0], w0[k1] = 1 - t, t
+            return _face_polar(M, w0, f0, 1.0, f1, 1.0, G, (1 - t) * M[:, k0] + t * M[:, k1],
+                               s, n=n)
+        Z += _quad_split(half, _nearest_params(-M[:, k0], M[:, k0] - M[:, k1],
+                                               [np.zeros(2), G[:, 0], G[:, 1]]), epsrel)
+    return Z
+
+
+def thin_pairs_reference(p, nodes, kind, s, **opts):
+    """Local matrices of touching pairs (like singular_pairs_reference, without
+    c_{2,s}) with the faces integrated by thin_face_integral_reference."""
+    p = np.asarray(p, dtype=float)
+    B = radial_factor(kind, s)
+    lt, lt2 = _LAYOUT[kind]
+    out = []
+    for row in np.asarray(nodes):
+        Pts = p[row]
+        M, A = _relative_coordinates(Pts, kind)
+        Z = thin_face_integral_reference(M, kind, s, **opts)
+        jac = _area2(Pts[list(lt)]) * _area2(Pts[list(lt2)])
+        out.append(B * jac * (A.T @ Z @ A))
+    return np.array(out)
+
+
+def separated_pair_reference(pT, pT2, s, n=6, extra=3):
+    """6 × 6 matrix ∫_T∫_T'(φ_a(x)−φ_a(y))(φ_b(x)−φ_b(y))|x−y|^(−2−2s) of a
+    separated pair (nodes of T, then of T') for T, T' close compared to their
+    size: both triangles by collapsed coordinates graded toward their
+    mutually nearest points (x-rule toward the point of T nearest to T', then
+    for each x the y-rule toward the point of T' nearest to x)."""
+    pT, pT2 = np.asarray(pT, dtype=float), np.asarray(pT2, dtype=float)
+    # point of T nearest to T': nearest over T's edges to T''s vertices and vice versa
+    best = (np.inf, None)
+    for i in range(3):
+        for j in range(3):
+            y = _nearest_on_segment(pT2[j], pT[i], pT[(i + 1) % 3])
+            best = min(best, (np.sum((y - pT2[j]) ** 2), tuple(y)), key=lambda z: z[0])
+            x = _nearest_on_segment(pT[i], pT2[j], pT2[(j + 1) % 3])
+            best = min(best, (np.sum((x - pT[i]) ** 2), tuple(pT[i])), key=lambda z: z[0])
+    x0, gap = np.array(best[1]), np.sqrt(best[0])
+    X, WX = _graded_triangle_rule(pT, x0, gap, n=n, extra=extra)
+    GT, GT2 = _gradients(pT), _gradients(pT2)
+    out = np.zeros((6, 6))
+    for x, wx in zip(X, WX):
+        y0 = _nearest_on_triangle(x, pT2)
+        Y, WY = _graded_triangle_rule(pT2, y0, np.linalg.norm(y0 - x), n=n, extra=extra)
+        lamx = 1.0 / 3.0 + GT @ (x - pT.mean(0))
+        lamy = 1.0 / 3.0 + (Y - pT2.mean(0)) @ GT2.T
+        U = np.column_stack([np.broadcast_to(lamx, (len(Y), 3)), -lamy])
+        k = wx * WY * np.sum((Y - x) ** 2, axis=1) ** (-1.0 - s)
+        out += (U * k[:, None]).T @ U
+    return out
