@@ -31,6 +31,7 @@ import scipy.sparse.linalg as spla
 from . import _h2_kernels as hk
 from . import _kernels
 from .assembly import (QuadratureOptions, _boundary_edges, _element_geometry,
+                       close_pair_corrections,
                        _element_moments, _far_rules, _kappa_local, _singular_local,
                        mesh_arrays, touching_pairs)
 from .exact import c2s, check_s
@@ -471,8 +472,15 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     for nodes, kind, n, fac in ((t, "coincident", quad.coincident, 0.5 * c),
                                 (edge_nodes, "edge", quad.edge, c),
                                 (vertex_nodes, "vertex", quad.vertex, c)):
-        loc = _singular_local(p, nodes, kind, n, s)
+        loc = _singular_local(p, nodes, kind, n, s, quad)
         hk.scatter_csr(indptr, indices, A.data, nodes, loc, fac)
+    # close separated pairs of thin triangles: the graded rule's correction
+    # (all of them lie in near blocks: their separation ratio is below R)
+    pairs, corr = close_pair_corrections(p, t, s, quad, geometry)
+    if len(pairs):
+        hk.scatter_csr(indptr, indices, A.data,
+                       np.ascontiguousarray(np.hstack([t[pairs[:, 0]], t[pairs[:, 1]]])),
+                       corr, c)
     tim["singular"] = time.perf_counter() - t2
 
     t3 = time.perf_counter()

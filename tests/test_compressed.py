@@ -149,3 +149,17 @@ def test_obstacle_dg0_steps_with_compressed_operator_match_dense():
         assert np.linalg.norm(a.u - b.u) <= 1e-6 * np.linalg.norm(a.u)
         assert np.linalg.norm(a.lam - b.lam) <= 1e-5 * max(np.linalg.norm(a.lam), 1e-12)
     assert np.linalg.norm(runs["dense"][-1].lam) > 0       # u0 = 1: contact from t = 0
+
+
+def test_operator_matches_dense_matrix_on_thin_triangles():
+    import fracfem as ff
+    from fracfem.assembly import close_separated_pairs, mesh_arrays
+
+    mesh = ff.disk_graded_rings(12, 3.0)
+    p, t = mesh_arrays(mesh)
+    assert len(close_separated_pairs(p, t, ff.QuadratureOptions())[0]) > 0
+    A = _dense(mesh, 0.5)
+    op = stiffness_operator(mesh, 0.5, leaf_size=8)
+    assert op.info["far_blocks"] > 0
+    x = np.random.default_rng(4).standard_normal(A.shape[0])
+    assert np.linalg.norm(op @ x - A @ x) <= 1e-6 * np.linalg.norm(A @ x)
