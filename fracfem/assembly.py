@@ -177,6 +177,7 @@ _SECOND = {"coincident": np.array([0, 1, 2]), "edge": np.array([0, 1, 3]),
 
 
 _KIND = {"coincident": 0, "edge": 1, "vertex": 2}
+DEGENERATE_GAP = 1e-12   # relative closeness/gap below which a pair is a mesh defect
 
 
 def _singular_local(p, nodes, kind, n, s, quad=None):
@@ -191,7 +192,13 @@ def _singular_local(p, nodes, kind, n, s, quad=None):
     nodes = np.ascontiguousarray(nodes, dtype=np.int64)
     thin = np.zeros(len(nodes), dtype=bool)
     if quad.thin_closeness > 0:
-        thin = _aniso_kernels.pair_closeness(p, nodes, _KIND[kind]) < quad.thin_closeness
+        closeness = _aniso_kernels.pair_closeness(p, nodes, _KIND[kind])
+        bad = np.flatnonzero(~(closeness > DEGENERATE_GAP))
+        if bad.size:
+            raise ValueError(f"{kind} element pair with nodes {nodes[bad[0]].tolist()} is "
+                             "degenerate (its triangles overlap or have zero area); "
+                             "check the mesh (fracfem.meshes.validate_mesh)")
+        thin = closeness < quad.thin_closeness
     regular = np.flatnonzero(~thin)
     if regular.size:
         zq, wq = rule(n)
@@ -237,6 +244,11 @@ def close_separated_pairs(p, t, quad, geometry=None):
         return empty, np.zeros(0)
     hm = np.maximum(diam[pairs[:, 0]], diam[pairs[:, 1]])
     gap = _aniso_kernels.triangle_gaps(p, t, np.ascontiguousarray(pairs)) / hm
+    bad = np.flatnonzero(~(gap > DEGENERATE_GAP))
+    if bad.size:
+        T1, T2 = pairs[bad[0]]
+        raise ValueError(f"triangles {T1} and {T2} touch without sharing a node (a crack "
+                         "or a duplicate node); check the mesh (fracfem.meshes.validate_mesh)")
     d2 = np.sum((cent[pairs[:, 0]] - cent[pairs[:, 1]]) ** 2, axis=1)
     sel = gap < quad.thin_closeness
     if quad.far_orders[0] == 0 and len(quad.far_thresholds):
