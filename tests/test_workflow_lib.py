@@ -35,7 +35,7 @@ def test_parameter_columns_survive_a_csv_round_trip(tmp_path):
     assert row.theta == 0.5 and row.tau_factor == 0.25 and row.solver == "pdas"
     assert json.loads(row.segment) == [-0.5, 0.5]
     # the options can be rebuilt from the row: nothing of them is lost
-    back = {k[len("quadrature_"):]: (tuple(json.loads(v)) if isinstance(v, str) else int(v))
+    back = {k[len("quadrature_"):]: (tuple(json.loads(v)) if isinstance(v, str) else v.item())
             for k, v in row.items() if k.startswith("quadrature_")}
     assert ff.QuadratureOptions(**back) == quad
     assert isinstance(row.git_commit, str)
