@@ -772,3 +772,112 @@ def far_rule_blocks(t, pairs, cent, diam, qx, qw, lam, offsets, thresholds, s, o
         for a in range(3):
             for b in range(3):
                 out[k, 3 + b, a] = out[k, a, 3 + b]
+
+
+@njit(cache=True)
+def _near_boundary_rule(PT, bv, nbv, gx, gw, q):  # pragma: no cover
+    """Points (m, 2) and weights (summing to |T|) on a thin triangle T close to
+    the boundary: Duffy coordinates from the vertex opposite the shortest edge,
+    the ray parameter graded toward the points where it passes nearest to the
+    boundary vertices bv[:nbv] (scales from the distances to them), the
+    angle by Gauss panels graded the same way."""
+    best = np.inf
+    i0 = 0
+    for i in range(3):
+        j = (i + 1) % 3
+        ln = (PT[j, 0] - PT[i, 0]) ** 2 + (PT[j, 1] - PT[i, 1]) ** 2
+        if ln < best:
+            best = ln
+            i0 = i
+    Y0 = PT[i0]
+    Y1 = PT[(i0 + 1) % 3]
+    X0 = PT[(i0 + 2) % 3]
+    yx, yy = Y1[0] - Y0[0], Y1[1] - Y0[1]
+    det = abs((Y0[0] - X0[0]) * yy - (Y0[1] - X0[1]) * yx)
+    ly = np.sqrt(best)
+    # θ: rays through / ends nearest to the boundary vertices
+    cand = np.empty(2 + 2 * nbv)
+    cand[0], cand[1] = 0.0, 1.0
+    nb = 2
+    for j in range(nbv):
+        vx, vy = bv[j, 0] - X0[0], bv[j, 1] - X0[1]
+        den = vx * yy - vy * yx
+        if den != 0.0:
+            th = ((Y0[0] - X0[0]) * vy - (Y0[1] - X0[1]) * vx) / den
+            if 0.0 < th < 1.0:
+                cand[nb] = th
+                nb += 1
+        th = ((bv[j, 0] - Y0[0]) * yx + (bv[j, 1] - Y0[1]) * yy) / best
+        if 0.0 < th < 1.0:
+            cand[nb] = th
+            nb += 1
+    bps = _unique_sorted(cand, nb)
+    scs = np.empty(bps.shape[0])
+    for i in range(bps.shape[0]):
+        ex, ey = Y0[0] + bps[i] * yx, Y0[1] + bps[i] * yy
+        dmin = np.inf
+        for j in range(nbv):
+            dmin = min(dmin, _point_segment(bv[j, 0], bv[j, 1], X0[0], X0[1], ex, ey))
+        scs[i] = dmin / ly
+    S, WS = _composite(bps, scs, gx, gw, q)
+    pts = np.empty((0, 2))
+    wts = np.empty(0)
+    chunks_p = []
+    chunks_w = []
+    for ks in range(S.shape[0]):
+        ex, ey = Y0[0] + S[ks] * yx - X0[0], Y0[1] + S[ks] * yy - X0[1]
+        # ρ along the ray: breakpoints where it passes nearest to the boundary vertices
+        cand2 = np.empty(2 + nbv)
+        cand2[0], cand2[1] = 0.0, 1.0
+        nb2 = 2
+        ee = ex * ex + ey * ey
+        for j in range(nbv):
+            t = ((bv[j, 0] - X0[0]) * ex + (bv[j, 1] - X0[1]) * ey) / ee
+            if 0.0 < t < 1.0:
+                cand2[nb2] = t
+                nb2 += 1
+        b2 = _unique_sorted(cand2, nb2)
+        s2 = np.empty(b2.shape[0])
+        en = np.sqrt(ee)
+        for i in range(b2.shape[0]):
+            px, py = X0[0] + b2[i] * ex, X0[1] + b2[i] * ey
+            dmin = np.inf
+            for j in range(nbv):
+                dmin = min(dmin, np.sqrt((bv[j, 0] - px) ** 2 + (bv[j, 1] - py) ** 2))
+            s2[i] = dmin / en
+        R, WR = _composite(b2, s2, gx, gw, q)
+        P = np.empty((R.shape[0], 2))
+        Wp = np.empty(R.shape[0])
+        for k in range(R.shape[0]):
+            P[k, 0] = X0[0] + R[k] * ex
+            P[k, 1] = X0[1] + R[k] * ey
+            Wp[k] = WS[ks] * WR[k] * R[k] * det
+        chunks_p.append(P)
+        chunks_w.append(Wp)
+    n = 0
+    for c in chunks_w:
+        n += c.shape[0]
+    pts = np.empty((n, 2))
+    wts = np.empty(n)
+    k = 0
+    for c in range(len(chunks_w)):
+        m = chunks_w[c].shape[0]
+        pts[k:k + m] = chunks_p[c]
+        wts[k:k + m] = chunks_w[c]
+        k += m
+    return pts, wts
+
+
+def near_boundary_rules(p, t, els, bverts, bptr, gx, gw, q):
+    """Quadrature points (m, 2), weights (m,) and element offsets (len(els)+1)
+    of :func:`_near_boundary_rule` for the elements els, with the boundary
+    vertices bverts[bptr[k]:bptr[k+1]] near element k."""
+    P, W, offs = [], [], [0]
+    for k, T in enumerate(els):
+        x, w = _near_boundary_rule(np.ascontiguousarray(p[t[T]]),
+                                   np.ascontiguousarray(bverts[bptr[k]:bptr[k + 1]]),
+                                   bptr[k + 1] - bptr[k], gx, gw, q)
+        P.append(x)
+        W.append(w)
+        offs.append(offs[-1] + len(w))
+    return np.vstack(P), np.concatenate(W), np.array(offs)

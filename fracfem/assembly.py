@@ -369,9 +369,10 @@ def exterior_kernel(x: np.ndarray, edges: np.ndarray, s: float) -> np.ndarray:
                                    gauss01(2)[0])
 
 
-def _graded_collapsed_rule(layers, ngauss, toward_apex):
+def _graded_collapsed_rule(layers, ngauss, toward_apex, theta_layers=0):
     """Barycentric points (apex, B, C) and weights on τ̂, geometrically graded
-    in the radial variable ρ toward the apex (ρ=0) or the opposite edge."""
+    in the radial variable ρ toward the apex (ρ=0) or the opposite edge, and
+    with theta_layers > 0 in the angle toward both ends (B and C)."""
     sigma = 0.25
     breaks = np.concatenate([[0.0], sigma ** np.arange(layers, -1, -1.0)])
     g, wg = gauss01(ngauss)
@@ -379,7 +380,13 @@ def _graded_collapsed_rule(layers, ngauss, toward_apex):
     wrho = np.concatenate([(b - a) * wg for a, b in zip(breaks[:-1], breaks[1:])])
     if not toward_apex:
         rho, wrho = 1.0 - rho[::-1], wrho[::-1]
-    th, wth = gauss01(2 * ngauss)
+    if theta_layers:
+        br = 0.5 * np.concatenate([[0.0], sigma ** np.arange(theta_layers, -1, -1.0)])
+        h = np.concatenate([a + (b - a) * g for a, b in zip(br[:-1], br[1:])])
+        wh = np.concatenate([(b - a) * wg for a, b in zip(br[:-1], br[1:])])
+        th, wth = np.concatenate([h, 1.0 - h[::-1]]), np.concatenate([wh, wh[::-1]])
+    else:
+        th, wth = gauss01(2 * ngauss)
     R, TH = np.meshgrid(rho, th, indexing="ij")
     W = np.outer(wrho, wth) * R
     bary = np.column_stack([(1 - R).ravel(), (R * (1 - TH)).ravel(), (R * TH).ravel()])
@@ -398,24 +405,43 @@ def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None, kappa=None
     # away from ∂Ω κ is smooth on the scale of the distance: a lower order
     # suffices where that distance exceeds four element diameters
     far = np.zeros(nt, dtype=bool)
+    near = np.zeros(nt, dtype=bool)
     inner = np.flatnonzero(nb == 0)
     if inner.size:
         far[inner] = _distance_to_edges(cent[inner], edges) > 4.0 * diam[inner]
+        # thin elements much closer to ∂Ω than long: κ varies along them on the
+        # scale of that distance near the corners of the polygon
+        cand = inner[~far[inner]]
+        if quad.thin_closeness > 0 and cand.size:
+            dv = _distance_to_edges(p[t[cand]].reshape(-1, 2), edges).reshape(-1, 3).min(1)
+            near[cand[dv < quad.thin_closeness * diam[cand]]] = True
+    if near.any():
+        out[near] = _kappa_near_boundary(p, t, np.flatnonzero(near), boundary_nodes, edges, s,
+                                         quad, diam)
     groups = []
-    for order, sel in ((quad.kappa_order, (nb == 0) & ~far),
+    for order, sel in ((quad.kappa_order, (nb == 0) & ~far & ~near),
                        (max(quad.kappa_order // 2, 2), far)):
         X, W = triangle_rule(order)
         lam_int = np.column_stack([1 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])
         groups.append((np.flatnonzero(sel), None, lam_int, W))
-    vrule = _graded_collapsed_rule(quad.kappa_layers, quad.kappa_gauss, True)
-    erule = _graded_collapsed_rule(quad.kappa_layers, quad.kappa_gauss, False)
-    for k in range(3):
-        # one boundary vertex (local k): apex there, graded toward it
-        els = np.flatnonzero((nb == 1) & onb[:, k])
-        groups.append((els, k, *vrule))
-        # two boundary vertices: apex at the free vertex k, graded toward ∂Ω
-        els = np.flatnonzero((nb == 2) & ~onb[:, k])
-        groups.append((els, k, *erule))
+    # thin elements at ∂Ω: κ varies along them near the corners of the polygon
+    # on the scale of the distance, so the angle is graded toward both ends too
+    thin = diam ** 2 > area2 / max(quad.thin_closeness, 1e-300) if quad.thin_closeness > 0 \
+        else np.zeros(nt, dtype=bool)
+    tl = quad.kappa_layers + 1
+    for rule_thin in (False, True):
+        vrule = _graded_collapsed_rule(quad.kappa_layers, quad.kappa_gauss, True,
+                                       tl if rule_thin else 0)
+        erule = _graded_collapsed_rule(quad.kappa_layers, quad.kappa_gauss, False,
+                                       tl if rule_thin else 0)
+        sel = thin if rule_thin else ~thin
+        for k in range(3):
+            # one boundary vertex (local k): apex there, graded toward it
+            els = np.flatnonzero((nb == 1) & onb[:, k] & sel)
+            groups.append((els, k, *vrule))
+            # two boundary vertices: apex at the free vertex k, graded toward ∂Ω
+            els = np.flatnonzero((nb == 2) & ~onb[:, k] & sel)
+            groups.append((els, k, *erule))
     for els, apex, bary, w in groups:
         if els.size == 0:
             continue
@@ -431,6 +457,40 @@ def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None, kappa=None
             .reshape(len(els), -1)
         wk = kap * (w[None, :] * area2[els, None])
         out[els] = np.einsum("tq,qa,qb->tab", wk, lam, lam)
+    return out
+
+
+def _kappa_near_boundary(p, t, els, boundary_nodes, edges, s, quad, diam):
+    """∫_T φ_a φ_b κ (len(els), 3, 3) for interior elements close to ∂Ω
+    compared to their length, by the graded rules of
+    :func:`fracfem._aniso_kernels.near_boundary_rules` (toward the points
+    nearest to the corners of the polygon within reach)."""
+    from scipy.spatial import cKDTree
+
+    bxy = p[boundary_nodes]
+    cent = p[t[els]].mean(axis=1)
+    lists = cKDTree(bxy).query_ball_point(cent, r=1.5 * diam[els])
+    ptr = np.concatenate([[0], np.cumsum([len(x) for x in lists])]).astype(np.int64)
+    bv = bxy[np.fromiter((k for x in lists for k in x), dtype=np.int64, count=int(ptr[-1]))]
+    gx, gw = gauss01(quad.thin_gauss)
+    x, w, offs = _aniso_kernels.near_boundary_rules(p, t, els, bv.reshape(-1, 2), ptr, gx, gw,
+                                                     float(quad.thin_ratio))
+    kap = exterior_kernel(x, edges, s)
+    owner = np.repeat(np.arange(len(els)), np.diff(offs))
+    P = p[t[els]]
+    e1, e2 = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    d = x - P[owner, 0]
+    l1 = (d[:, 0] * e2[owner, 1] - d[:, 1] * e2[owner, 0]) / det[owner]
+    l2 = (e1[owner, 0] * d[:, 1] - e1[owner, 1] * d[:, 0]) / det[owner]
+    lam = np.column_stack([1.0 - l1 - l2, l1, l2])
+    wk = w * kap
+    out = np.zeros((len(els), 3, 3))
+    for a in range(3):
+        for b in range(a, 3):
+            out[:, a, b] = np.bincount(owner, weights=wk * lam[:, a] * lam[:, b],
+                                       minlength=len(els))
+            out[:, b, a] = out[:, a, b]
     return out
 
 

@@ -680,3 +680,28 @@ def separated_pair_reference(pT, pT2, s, n=6, extra=3):
         k = wx * WY * np.sum((Y - x) ** 2, axis=1) ** (-1.0 - s)
         out += (U * k[:, None]).T @ U
     return out
+
+
+def kappa_mass_thin_reference(p, t, T, s, panels=2000, n=6):
+    """∫_T φ_a φ_b κ (3, 3) for one (thin) element T by brute force: slices
+    parallel to its longest edge, `panels` uniform Gauss panels along it and
+    panels graded toward both ends across, κ by kappa_reference (boundary of
+    the whole mesh)."""
+    p, t = np.asarray(p, dtype=float), np.asarray(t)
+    edges, _ = boundary_edges_reference(p, t)
+    P = p[t[T]]
+    L = [np.linalg.norm(P[(i + 1) % 3] - P[i]) for i in range(3)]
+    i = int(np.argmax(L))
+    A, B, C = P[i], P[(i + 1) % 3], P[(i + 2) % 3]
+    g, w = _gauss01(n)
+    br = np.linspace(0, 1, panels + 1)
+    u = np.concatenate([a + (b - a) * g for a, b in zip(br[:-1], br[1:])])
+    wu = np.concatenate([(b - a) * w for a, b in zip(br[:-1], br[1:])])
+    v, wv = _graded(n, 14, 0.25, "both")       # κ ~ dist^(−2s) toward ∂Ω across
+    # x = (1−v)(A + u(B−A)) + v C, |dx| = 2|T| (1 − v) du dv
+    U, V = np.meshgrid(u, v, indexing="ij")
+    X = (1 - V.ravel())[:, None] * (A + U.ravel()[:, None] * (B - A)) + V.ravel()[:, None] * C
+    W = np.outer(wu, wv).ravel() * (1 - V.ravel()) * _area2(P)
+    kap = kappa_reference(X, edges, s)
+    lam = 1.0 / 3.0 + (X - P.mean(0)) @ _gradients(P).T
+    return np.einsum("q,qa,qb->ab", W * kap, lam, lam)
