@@ -417,7 +417,7 @@ def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None, kappa=None
             near[cand[dv < quad.thin_closeness * diam[cand]]] = True
     if near.any():
         out[near] = _kappa_near_boundary(p, t, np.flatnonzero(near), boundary_nodes, edges, s,
-                                         quad, diam)
+                                         quad, diam, kappa)
     groups = []
     for order, sel in ((quad.kappa_order, (nb == 0) & ~far & ~near),
                        (max(quad.kappa_order // 2, 2), far)):
@@ -460,7 +460,7 @@ def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None, kappa=None
     return out
 
 
-def _kappa_near_boundary(p, t, els, boundary_nodes, edges, s, quad, diam):
+def _kappa_near_boundary(p, t, els, boundary_nodes, edges, s, quad, diam, kappa=None):
     """∫_T φ_a φ_b κ (len(els), 3, 3) for interior elements close to ∂Ω
     compared to their length, by the graded rules of
     :func:`fracfem._aniso_kernels.near_boundary_rules` (toward the points
@@ -475,7 +475,7 @@ def _kappa_near_boundary(p, t, els, boundary_nodes, edges, s, quad, diam):
     gx, gw = gauss01(quad.thin_gauss)
     x, w, offs = _aniso_kernels.near_boundary_rules(p, t, els, bv.reshape(-1, 2), ptr, gx, gw,
                                                      float(quad.thin_ratio))
-    kap = exterior_kernel(x, edges, s)
+    kap = exterior_kernel(x, edges, s) if kappa is None else kappa(x)
     owner = np.repeat(np.arange(len(els)), np.diff(offs))
     P = p[t[els]]
     e1, e2 = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
