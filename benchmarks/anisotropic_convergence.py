@@ -22,11 +22,15 @@ import scipy.linalg as la
 import fracfem as ff
 
 
+NCHUNKS = None
+
+
 def galerkin_energy(mesh, s, quad=None):
     """(f, u_h) = bᵀA⁻¹b for f = 1, and the assembly timings."""
     free = mesh.interior_nodes()
     tim = {}
-    A = ff.stiffness_matrix(mesh, s, quadrature=quad, timings=tim)[np.ix_(free, free)]
+    A = ff.stiffness_matrix(mesh, s, quadrature=quad, timings=tim,
+                            nchunks=NCHUNKS)[np.ix_(free, free)]
     b = ff.load_vector(mesh, 1.0)[free]
     t0 = time.perf_counter()
     fu = float(b @ la.cho_solve(la.cho_factor(A, overwrite_a=True), b))
@@ -34,9 +38,10 @@ def galerkin_energy(mesh, s, quad=None):
     return fu, len(free), tim
 
 
-def quadrature_table(out):
+def quadrature_table(out, s_values=(0.5, 0.25, 0.75)):
     series = [(2.0, 0.5, (8, 16, 24, 32)), (3.0, 0.5, (8, 16, 24)),
               (2.0, 0.25, (8, 16, 24, 32)), (2.0, 0.75, (8, 16, 24, 32))]
+    series = [x for x in series if x[1] in s_values]
     print("| mesh | s | DOFs | (f,u_h) | (f,u_h) raised | change / err² | err | increasing, < (f,u) "
           "| assembly s (raised) |", file=out)
     print("|---|---|---|---|---|---|---|---|---|", file=out)
@@ -80,7 +85,14 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--part", choices=["quadrature", "rate", "all"], default="all")
     ap.add_argument("--out", default=None, help="also write the tables to this file")
+    ap.add_argument("--s", type=float, nargs="+", default=[0.5, 0.25, 0.75],
+                    help="s values of the quadrature table")
+    ap.add_argument("--k", type=int, nargs="+", default=[6, 7, 8, 9, 10, 11, 12],
+                    help="meshes of the rate table, h = 2^(-k/2)")
+    ap.add_argument("--nchunks", type=int, default=None,
+                    help="far-field chunks (each an N x N copy; 1 for the largest meshes)")
     args = ap.parse_args()
+    NCHUNKS = args.nchunks
     outs = [sys.stdout] + ([open(args.out, "w")] if args.out else [])
 
     class Tee:
@@ -94,7 +106,7 @@ if __name__ == "__main__":
 
     tee = Tee()
     if args.part in ("quadrature", "all"):
-        quadrature_table(tee)
+        quadrature_table(tee, tuple(args.s))
     if args.part in ("rate", "all"):
         print(file=tee)
-        rate_table(tee)
+        rate_table(tee, tuple(args.k))

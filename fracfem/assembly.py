@@ -235,9 +235,11 @@ def close_separated_pairs(p, t, quad, geometry=None):
     lists = tree.query_ball_point(cent, r=(quad.thin_closeness + 4.0 / 3.0) * diam)
     cnt = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
     i = np.repeat(np.arange(len(t)), cnt)
-    j = np.fromiter((k for x in lists for k in x), dtype=np.int64, count=int(cnt.sum()))
-    pairs = np.unique(np.sort(np.column_stack([i, j]), axis=1), axis=0)
-    pairs = pairs[pairs[:, 0] < pairs[:, 1]]
+    j = np.concatenate(lists).astype(np.int64) if cnt.sum() else np.zeros(0, dtype=np.int64)
+    # each pair once, from its larger element (which finds it)
+    keep = (diam[i] > diam[j]) | ((diam[i] == diam[j]) & (i < j))
+    i, j = i[keep], j[keep]
+    pairs = np.column_stack([np.minimum(i, j), np.maximum(i, j)])
     a, b = t[pairs[:, 0]], t[pairs[:, 1]]
     pairs = pairs[~(a[:, :, None] == b[:, None, :]).any(axis=(1, 2))]
     if not len(pairs):
