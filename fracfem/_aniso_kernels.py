@@ -538,6 +538,12 @@ def _composite(bp, sc, gx, gw, q):  # pragma: no cover
     """Composite Gauss rule on [bp[0], bp[-1]] with breakpoints bp (sorted)
     and grading scales sc: on each side of a breakpoint the panels start at
     width sc and grow by q (each interval split halfway)."""
+    # degenerate geometry (meshes that skipped validation) gives NaN or zero
+    # scales: grade as finely as a double allows instead
+    sc = sc.copy()
+    for i in range(sc.shape[0]):
+        if not sc[i] > 1e-15:
+            sc[i] = 1e-15
     # an interior breakpoint whose panels would not be smaller than its
     # distance to both neighbours grades nothing: drop it
     keep = np.ones(bp.shape[0], dtype=np.bool_)
@@ -552,13 +558,15 @@ def _composite(bp, sc, gx, gw, q):  # pragma: no cover
     for i in range(nk - 1):
         half = 0.5 * (bp[i + 1] - bp[i])
         for e in (sc[i], sc[i + 1]):
-            r = half / max(e, 1e-300)
+            r = half / e
             npan += 2 + (int(np.log(r) / np.log(q)) + 1 if r > 1.0 else 0)
     T = np.empty(npan * ng)
     W = np.empty(npan * ng)
     n = 0
     for i in range(nk - 1):
         lo, hi = bp[i], bp[i + 1]
+        if not hi > lo:
+            continue
         if sc[i] >= hi - lo and sc[i + 1] >= hi - lo:     # one panel suffices
             for g in range(ng):
                 T[n] = lo + (hi - lo) * gx[g]
@@ -571,7 +579,7 @@ def _composite(bp, sc, gx, gw, q):  # pragma: no cover
                 a, end, sgn, w = lo, mid, 1.0, sc[i]
             else:
                 a, end, sgn, w = hi, mid, -1.0, sc[i + 1]
-            while sgn * (end - a) > 0.0:
+            while sgn * (end - a) > 0.0 and n + ng <= T.shape[0]:
                 rem = sgn * (end - a)
                 b = end if rem <= w * (1.0 + 0.5 * q) else a + sgn * w
                 h = b - a
