@@ -252,9 +252,7 @@ def close_separated_pairs(p, t, quad, geometry=None):
         raise ValueError(f"triangles {T1} and {T2} touch without sharing a node (a crack "
                          "or a duplicate node); check the mesh (fracfem.meshes.validate_mesh)")
     d2 = np.sum((cent[pairs[:, 0]] - cent[pairs[:, 1]]) ** 2, axis=1)
-    # gap 0 without a shared node only happens in cracked (unvalidated) meshes:
-    # leave those pairs to the product rule
-    sel = (gap < quad.thin_closeness) & (gap > 1e-12)
+    sel = gap < quad.thin_closeness
     if quad.far_orders[0] == 0 and len(quad.far_thresholds):
         sel &= d2 < (quad.far_thresholds[0] * hm) ** 2
     return np.ascontiguousarray(pairs[sel]), gap[sel]
