@@ -12,6 +12,9 @@ _spec = importlib.util.spec_from_file_location(
 pr = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(pr)
 
+# margins fixed here so the expected numbers do not follow the script's defaults
+MARGINS = dict(mem_factor=1.5, mem_overhead=512, mem_floor=1024, runtime_factor=3.0,
+               runtime_overhead=5, runtime_floor=10)
 HEADER = "s\th:m:s\tmax_rss\tmax_vms\tmax_uss\tmax_pss\tio_in\tio_out\tmean_load\tcpu_time\n"
 
 RULES = [
@@ -78,7 +81,7 @@ def test_recommend_takes_the_max_over_wildcards_with_the_margins(tmp_path):
     bench(tmp_path / "ex1/graded_s0.5_h0.1.tsv", 700.0, 3000, cpu=1300.0)
     bench(tmp_path / "ex1/adaptive_s0.5.tsv", 30.0, 100)
     bench(tmp_path / "figures/fig09-ex3-error.tsv", 2.0, 150)
-    recs, unmatched = pr.compute(RULES, tmp_path)
+    recs, unmatched = pr.compute(RULES, tmp_path, **MARGINS)
     assert unmatched == []
     solve = recs["solve"]
     # mem: 1.5 * 3000 + 512 = 5012 -> 5120 (256 steps); runtime: ceil(3 * 700 / 60) + 5 = 40
@@ -106,7 +109,7 @@ def test_fit_threads_lowers_only_long_serial_rules(tmp_path):
 
 def test_the_block_replaces_only_itself_and_is_valid_yaml(tmp_path):
     bench(tmp_path / "ex1/uniform_s0.5_L2.tsv", 10.0, 200)
-    recs, _ = pr.compute(RULES, tmp_path)
+    recs, _ = pr.compute(RULES, tmp_path, **MARGINS)
     block = pr.render_block(recs, RULES, source="fake run", margins="m")
     profile = ("# fill in\ndefault-resources:\n  slurm_account: \"${ACC}\"\n"
                "executor: slurm\n")

@@ -9,7 +9,9 @@ times and log text differ between any two runs):
                 --atol); columns holding wall times, memory peaks or provenance of
                 the run (TIMING_COLUMNS: t_*, *_s, created, git_commit, ...) are left out
   .md .tex .json  as text, with every number compared within the tolerance; cells of
-                markdown table columns whose header is a timing column are left out
+                markdown table columns whose header is a timing column or derived
+                from wall times (TIMING_HEADERS: seconds, [s], fastest, speed-up) are
+                left out
   .npz          array by array, floats within the tolerance, others exactly
   .png          the decoded pixels (matplotlib), so PNG metadata does not matter
   .pdf          the bytes after removing /CreationDate and /ModDate
@@ -32,6 +34,8 @@ import numpy as np
 TIMING_COLUMNS = re.compile(
     r"^(t_\w*|\w+_s|\w*_per_s|\w*seconds\w*|s/\w+|time|wall\w*|peak_mem\w*|created|git_commit"
     r"|ratio_to_floor)$", re.I)
+# markdown headers of columns holding or derived from wall times
+TIMING_HEADERS = re.compile(r"\b(seconds|wall|fastest|speed-?up)\b|\[s\]|\(s\)", re.I)
 EXPECTED_TO_DIFFER = ["*benchmark-assembly.*", "*benchmark-compressed.*", "*-vs-time.*",
                       "*error-vs-time*"]
 SKIP_DIRS = {"benchmarks", "logs"}
@@ -87,7 +91,7 @@ def drop_timing_cells(text):
         if is_header:
             drop = {j for j, c in enumerate(cells)
                     if TIMING_COLUMNS.match(re.sub(r"[`*\s]", "", c).strip() or "-")
-                    or re.search(r"\b(seconds|time \[s\]|wall)\b|\[s\]|\(s\)", c)}
+                    or TIMING_HEADERS.search(c)}
         out.append("|".join("~" if j in drop and not is_header else c
                             for j, c in enumerate(cells)))
     return "\n".join(out)
@@ -111,7 +115,7 @@ def compare_csv(fa, fb, rtol, atol):
                 if not ok:
                     return "DIFFERENT", f"column {c}: {u!r} vs {v!r}"
         else:
-            for u, v in zip(x.astype(str), y.astype(str)):
+            for u, v in zip(map(str, x), map(str, y)):     # NaN -> "nan" on both sides
                 ok, rel, what = compare_numbers_in_text(u, v, rtol, atol)
                 worst = max(worst, rel)
                 if not ok:
@@ -129,8 +133,9 @@ def compare_text(fa, fb, rtol, atol, markdown):
     ok, worst, what = compare_numbers_in_text(ta, tb, rtol, atol)
     if not ok:
         return "DIFFERENT", what
-    return "numerically equal", (f"max rel diff {worst:.1e}" if worst else "") + (
-        "; timing columns left out" if markdown else "")
+    notes = ([f"max rel diff {worst:.1e}"] if worst else []) + (
+        ["timing columns left out"] if markdown else [])
+    return "numerically equal", "; ".join(notes)
 
 
 def compare_npz(fa, fb, rtol, atol):
