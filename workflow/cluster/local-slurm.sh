@@ -15,7 +15,8 @@
 #   SLURM_HEADROOM_MB (default 2048), one partition named $SLURM_PARTITION
 #   (default "local"); select/cons_tres with CR_Core_Memory so --mem and
 #   --cpus-per-task are enforced by the scheduler; proctrack/linuxproc and
-#   task/none because containers usually have no writable cgroup hierarchy.
+#   task/none because containers usually have no writable cgroup hierarchy;
+#   the daemons talk over 127.0.0.1, so the host name need not resolve.
 #   There is no slurmdbd (accounting_storage/none): `sacct` cannot answer, so the
 #   executor plugin must query job states with squeue
 #   (`--slurm-status-command squeue`); MinJobAge is raised so finished jobs stay
@@ -99,7 +100,7 @@ write_config() {
     cat > "$CONF_DIR/slurm.conf" <<EOF
 # Written by fracfem's workflow/cluster/local-slurm.sh (rerun it to regenerate).
 ClusterName=localcluster
-SlurmctldHost=$NODE
+SlurmctldHost=$NODE(127.0.0.1)
 SlurmUser=root
 SlurmdUser=root
 AuthType=auth/munge
@@ -125,7 +126,7 @@ StateSaveLocation=$STATE_DIR
 SlurmdSpoolDir=$SPOOL_DIR
 SlurmctldTimeout=60
 SlurmdTimeout=60
-NodeName=$NODE CPUs=$cpus RealMemory=$real_mem State=UNKNOWN
+NodeName=$NODE NodeAddr=127.0.0.1 CPUs=$cpus RealMemory=$real_mem State=UNKNOWN
 PartitionName=$PARTITION Nodes=$NODE Default=YES MaxTime=INFINITE State=UP
 EOF
     # slurmd reads cgroup.conf at start when present; an empty one is not needed
