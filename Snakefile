@@ -12,6 +12,7 @@ include: "workflow/rules/example1.smk"
 include: "workflow/rules/vi.smk"
 include: "workflow/rules/parabolic.smk"
 include: "workflow/rules/report.smk"
+include: "workflow/rules/docs.smk"
 
 
 rule all:
@@ -41,4 +42,5 @@ rule all:
         rules.parabolic_summary.output,
         rules.para_reference_check.output,
         expand(rules.thin_demo.output, kind=["obstacle", "friction"]),
+        rules.results_page.output,
     default_target: True

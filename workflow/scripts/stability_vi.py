@@ -158,7 +158,10 @@ def main(md, csv, log=None, threads=None):
     df["status"] = df["status"].fillna("ok")
     write_table(with_provenance(df), csv)
     with atomic_path(md) as tmp:
-        tmp.write_text(df.to_markdown(index=False, floatfmt=".3g") + "\n")
+        # a "|" in a header or cell would split the markdown column: escape it
+        md_df = df.rename(columns=lambda c: c.replace("|", "\\|"))
+        md_df = md_df.map(lambda v: v.replace("|", "\\|") if isinstance(v, str) else v)
+        tmp.write_text(md_df.to_markdown(index=False, floatfmt=".3g") + "\n")
 
 
 if __name__ == "__main__":
