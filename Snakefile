@@ -6,6 +6,10 @@ min_version("8.0")
 
 configfile: "config.yaml"
 
+# `snakemake --report report.html` (or report.zip) after a run: every figure and table
+# with its caption (report/captions/), this page first.
+report: "report/workflow.rst"
+
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/example1.smk"
