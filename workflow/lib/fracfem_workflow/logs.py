@@ -57,7 +57,9 @@ def log_to(path, level: int = logging.INFO) -> logging.Handler:
 
 
 def _finished() -> None:
-    """The last line of the log (at interpreter exit)."""
+    """The last line of the log (at interpreter exit), if it is still open."""
+    if not any(isinstance(h, _JobLog) for h in logging.getLogger().handlers):
+        return
     log.log(logging.ERROR if _state["failed"] else logging.INFO, "%s after %.1f s",
             "failed" if _state["failed"] else "finished",
             time.perf_counter() - _state["start"])
