@@ -196,8 +196,11 @@ def job_logging():
 
     root = logging.getLogger()
     level, hook, threads = root.level, sys.excepthook, numba.get_num_threads()
+    quiet = {name: logging.getLogger(name).level for name in logs.QUIET}
     yield
     numba.set_num_threads(threads)
+    for name, lvl in quiet.items():
+        logging.getLogger(name).setLevel(lvl)
     for h in [h for h in root.handlers if isinstance(h, logs._JobLog)]:
         root.removeHandler(h)
         h.close()
@@ -221,11 +224,12 @@ def test_log_to_writes_each_line_before_the_job_ends(tmp_path, job_logging):
     assert re.search(LINE + r"fracfem\.adaptive: Algorithm B step 3: 120 DOFs$",
                      path.read_text(), re.M)
     logging.getLogger("fracfem.krylov").debug("a DEBUG line")
+    logging.getLogger("skfem.assembly").info("Assembling 'mass'.")
     with warnings.catch_warnings():
         warnings.simplefilter("always")
         warnings.warn("a warning of the job")
     text = path.read_text()
-    assert "a DEBUG line" not in text
+    assert "a DEBUG line" not in text and "Assembling" not in text
     assert re.search(r" WARNING py\.warnings: .*a warning of the job", text)
     assert handler.stream is not None and not handler.stream.closed
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import atexit
 import logging
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -17,6 +18,9 @@ __all__ = ["log_to", "script_logger", "FORMAT"]
 
 FORMAT = "%(asctime)s %(levelname)s %(name)s: %(message)s"
 DATEFMT = "%Y-%m-%d %H:%M:%S"
+# libraries whose INFO lines are one per call (scikit-fem: two per assembly, i.e.
+# several per time step): only their warnings go to the job log
+QUIET = ("skfem",)
 
 
 class _JobLog(logging.FileHandler):
@@ -34,7 +38,8 @@ def log_to(path, level: int = logging.INFO) -> logging.Handler:
     whether it finished or failed and after how long.
 
     The file is truncated (one job, one log) and each record is flushed as it is
-    written.  A second call replaces the handler of the first.  Returns the handler.
+    written.  A second call replaces the handler of the first.  Loggers of
+    :data:`QUIET` only pass warnings.  Returns the handler.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -46,14 +51,21 @@ def log_to(path, level: int = logging.INFO) -> logging.Handler:
     handler.setFormatter(logging.Formatter(FORMAT, DATEFMT))
     root.addHandler(handler)
     root.setLevel(level)
+    for name in QUIET:
+        logging.getLogger(name).setLevel(max(level, logging.WARNING))
     logging.captureWarnings(True)
     _log_uncaught()
     if _state["start"] is None:
         _state["start"] = time.perf_counter()
         atexit.register(_finished)
-    log.info("log of %s (pid %d)", Path(sys.argv[0]).name if sys.argv and sys.argv[0]
-             else "python", os.getpid())
+    log.info("log of %s (pid %d)", _script_name(), os.getpid())
     return handler
+
+
+def _script_name() -> str:
+    """The running script's file name (Snakemake runs a copy named tmp<random>.<name>.py)."""
+    name = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "python"
+    return re.sub(r"^tmp[^.]+\.(?=.+\.py$)", "", name)
 
 
 def _finished() -> None:
