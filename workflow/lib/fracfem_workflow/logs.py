@@ -14,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["log_to", "script_logger", "FORMAT"]
+__all__ = ["log_to", "log_to_stderr", "script_logger", "FORMAT"]
 
 FORMAT = "%(asctime)s %(levelname)s %(name)s: %(message)s"
 DATEFMT = "%Y-%m-%d %H:%M:%S"
@@ -66,6 +66,20 @@ def _script_name() -> str:
     """The running script's file name (Snakemake runs a copy named tmp<random>.<name>.py)."""
     name = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "python"
     return re.sub(r"^tmp[^.]+\.(?=.+\.py$)", "", name)
+
+
+def log_to_stderr(level: int = logging.INFO) -> logging.Handler:
+    """The same lines on standard error, for a script run by a ``shell:`` rule whose
+    output is redirected to its log (``> {log} 2>&1``); no exit line."""
+    root = logging.getLogger()
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter(FORMAT, DATEFMT))
+    root.addHandler(handler)
+    root.setLevel(level)
+    for name in QUIET:
+        logging.getLogger(name).setLevel(max(level, logging.WARNING))
+    logging.captureWarnings(True)
+    return handler
 
 
 def _finished() -> None:
