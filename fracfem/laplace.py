@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
+from ._progress import solver_level
 from .assembly import QuadratureOptions, dense_bytes, load_vector, stiffness_matrix
 from .compressed import DEFAULT_TOL, stiffness_operator
-from ._progress import solver_level
 from .krylov import pcg
 from .memory import check_dense, memory_limit
 from .meshes import validates
