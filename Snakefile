@@ -6,12 +6,17 @@ min_version("8.0")
 
 configfile: "config.yaml"
 
+# `snakemake --report report.html` (or report.zip) after a run: every figure and table
+# with its caption (report/captions/), this page first.
+report: "report/workflow.rst"
+
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/example1.smk"
 include: "workflow/rules/vi.smk"
 include: "workflow/rules/parabolic.smk"
 include: "workflow/rules/report.smk"
+include: "workflow/rules/docs.smk"
 
 # Jobs that only read finished results and draw a figure or write a table (seconds
 # each): on a cluster they run beside Snakemake instead of waiting in the queue.
@@ -69,4 +74,5 @@ rule all:
         rules.parabolic_summary.output,
         rules.para_reference_check.output,
         expand(rules.thin_demo.output, kind=["obstacle", "friction"]),
+        rules.results_page.output,
     default_target: True

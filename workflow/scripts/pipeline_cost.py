@@ -27,6 +27,9 @@ def main(results, out):
         d = pd.read_csv(f, sep="\t")
         rows.append({"part": part, "job": str(rel), "seconds": float(d.s.iloc[0]),
                      "max_rss_mb": float(d.max_rss.iloc[0])})
+    if not rows:
+        raise SystemExit(f"no benchmark files under {Path(results, 'benchmarks')}: "
+                         "run the pipeline first")
     df = pd.DataFrame(rows)
     summary = df.groupby("part").agg(jobs=("job", "size"), seconds=("seconds", "sum"),
                                      peak_rss_mb=("max_rss_mb", "max")).reset_index()

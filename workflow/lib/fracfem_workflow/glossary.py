@@ -1,0 +1,264 @@
+"""What every column of the pipeline's and the benchmarks' tables means.
+
+The one source of the column definitions: ``workflow/scripts/update_readme.py``
+renders it into the README (the groups with in_readme), into docs/glossary.md (all
+groups) and into the front page of ``snakemake --report`` (report/workflow.rst, all
+groups, as reStructuredText); a test checks that every column of every committed
+table is defined.
+
+Groups are (title, in_readme, {columns: meaning}); columns is one name or a tuple of
+names sharing a meaning.  A column defined in an earlier group is not repeated in a
+later one.  Titles and meanings are Markdown with `code` spans only: they are turned
+into reStructuredText by :func:`rst`.
+"""
+import re
+import textwrap
+
+GROUPS = [
+    ("Shared columns", True, {
+        "s": "order of the fractional Laplacian",
+        "problem": "`ex2`, `ex3-<key of example3.variants>`: `ex3-printed` (the paper's "
+                   "data), `ex3-signchange` (f = 1 − 3|x|²), and the keys of "
+                   "`parabolic.examples`: `ex4-u1`, `ex4-u2` (u₀ = 1, 2), `ex5`",
+        ("example", "variant"): "the paper's example number, and the data set within it "
+                                "(`printed`, `signchange`, `u1`, `u2`; else empty)",
+        "family": "mesh family: `uniform`, `graded` (towards the boundary circle), "
+                  "`adaptive` (Algorithm B for Examples 1–3, C for Examples 4, 5)",
+        "tag": "the run within its family: `L<level>`, `h<h>`, `step<k>` (Algorithm B after "
+               "k refinements), `it<k>` (pass k of Algorithm C)",
+        "dofs": "free (interior) nodes of the P1 mesh (the fine mesh T_h for the mixed "
+                "problems), for Algorithm C the most over its time slabs "
+                "(`elliptic-errors.md`: range of the adaptive series)",
+        "steps": "time steps, for Algorithm C summed over its slabs (`elliptic-errors.md`: "
+                 "runs of the adaptive series)",
+        "spacetime_dofs": "`dofs` × `steps`, for Algorithm C Σ_j steps × free nodes of slab j",
+        "multipliers": "number of values of λ_H, the elements of T_H (coarse edges for the "
+                       "thin problems)",
+        "h_max": "largest triangle diameter (longest edge) of the fine mesh",
+        "error": "Example 1 ‖u − u_h‖_a = √((f,u) − (f,u_h)), Examples 2, 3 "
+                 "√(2|E(u_h) − E_ref|) (E the discrete energy), Examples 4, 5 the L²(0,T; a) "
+                 "distance to the reference run (`bad-inputs.md`: the exception class)",
+        "eta": "global a posteriori estimator η of Section 7 (parabolic: of Theorem 6.18, "
+               "space, time, contact and initial parts), adaptive runs only",
+        "efficiency": "`eta` / `error`",
+        "peak_mem_mb": "peak resident memory of the job's process so far, MiB",
+    }),
+    ("Wall seconds (`t_*`, measured: they change on every run)", True, {
+        "t_assembly": "stiffness matrix and load vector (adaptive: the step's discrete "
+                      "problem)",
+        "t_solve": "the linear solve",
+        "t_total": "mesh + assembly + solve (adaptive: assemble, solve, estimate, mark and "
+                   "refine of the step)",
+        "t_cumulative": "adaptive: from the start of Algorithm B to the end of the step",
+        "t_schur": "the Schur complement S = BᵀA⁻¹B, after the Cholesky factor of A",
+        ("t_uzawa", "t_pdas"): "the Uzawa (Algorithm A) and primal–dual active set "
+                               "iterations",
+        "t_wall": "the whole parabolic run (adaptive: all passes so far, without the error "
+                  "measurement)",
+    }),
+    ("Rates (`rates.md`, `rates.csv`)", True, {
+        "rate": "least-squares slope of log `error` against log `dofs` (Examples 4, 5: "
+                "`spacetime_dofs`) over the series",
+        "paper_rate": "the paper's rate (paper's s and data only)",
+        "difference": "`rate` − `paper_rate` (> 0: our error falls more slowly)",
+        "n_points": "runs in the fit",
+        ("dof_min", "dof_max"): "smallest and largest DOFs of the fit",
+    }),
+    ("Error against wall time (`elliptic-error-vs-time.md`, `parabolic-runs.md`)", True, {
+        "common error": "the largest of the families' smallest errors",
+        ("t_adaptive [s]", "t_graded [s]", "t_uniform [s]"):
+            "wall time of the run (Examples 2, 3: with factorisation, Schur complement, "
+            "PDAS; adaptive: all steps so far) at which the family first reaches it, "
+            "log–log interpolated",
+        "fastest": "the family with the smallest such time",
+        "speed-up vs slowest": "largest of those times / smallest",
+    }),
+    ("Obstacle and friction (`vi-runs.md`, `ex5-free-boundary.md`)", True, {
+        ("iterations_uzawa", "iterations_pdas"): "Uzawa and PDAS iterations on the same "
+                                                 "discrete problem",
+        "contact": "elements of T_H with λ_H < 0 (beyond round-off)",
+        ("slip_plus", "slip_minus", "stick"): "elements of T_H with λ_H = F, λ_H = −F "
+                                              "(relative tolerance), the rest",
+        ("max_du_uzawa_pdas", "max_dlambda_uzawa_pdas"): "largest nodal difference of the "
+                                                         "Uzawa and PDAS u_h, and of their "
+                                                         "λ_H",
+        "t": "end of the time step",
+        ("slip+ (λ=F)", "slip− (λ=−F)"): "as `slip_plus`, `slip_minus` at time `t`",
+        ("slip+ outer radius", "slip− inner radius"): "largest centroid radius of the slip+ "
+                                                      "elements, smallest of the slip− ones "
+                                                      "(NaN: none)",
+    }),
+    ("Quadrature check (`ex1-quadrature-check.md`)", False, {
+        ("fu_h", "fu_h_raised"): "(f,u_h) with the default quadrature and with every order "
+                                 "raised (`QuadratureOptions().raised()`)",
+        "change": "`fu_h_raised` − `fu_h`",
+        "error_squared": "(f,u) − (f,u_h), the squared energy error",
+        "change_over_error_squared": "|`change`| / `error_squared`: must be far below 1",
+        "t_assembly_raised": "assembly seconds with the raised orders",
+    }),
+    ("Reference energies (`elliptic-errors.md`)", False, {
+        "reference": "where E_ref comes from: `exact`, `exact (pure slip)`, "
+                     "`extrapolated (<family>)`",
+        "E_ref": "the reference energy of the errors (Example 1: −½(f,u))",
+        "extrapolated": "limit E_∞ of E_∞ + C·N^(−β) through the three finest energies of "
+                        "the `reference.family` series",
+        "reference error": "E exact: √(2|`extrapolated` − E|); else the spread of the "
+                           "extrapolations",
+        "finest error": "smallest error of any family",
+        "spread of the extrapolations": "√(2|max − min|) of the families' limits",
+        "families": "families whose extrapolation exists",
+        ("adaptive rate range", "graded rate range", "uniform rate range"):
+            "smallest … largest fitted rate of the family, each family's limit in turn the "
+            "reference",
+        "ratio": "`reference error` / `finest error`",
+        ("efficiency min", "efficiency max", "max/min"): "extremes of `efficiency` along "
+                                                         "the adaptive series, their ratio",
+        "efficiency per step": "`efficiency` of every adaptive step, in order",
+    }),
+    ("Parabolic runs (`parabolic-runs.md`)", True, {
+        "first_contact": "Example 4: time of the first step with some λ_H < 0 (NaN: none)",
+        "reference_error_estimate": "the reference run's own error: finest graded error × "
+                                    "(reference's / finest graded `spacetime_dofs`)^(graded "
+                                    "rate)",
+    }),
+    ("Parabolic reference check (`parabolic-reference-check.md`)", False, {
+        "exact error": "L²(0,T; a) error against the manufactured solution, exact in time",
+        "error vs reference": "the same run's error measured like Examples 4, 5, against "
+                              "a reference run",
+        ("rate, exact error", "rate, error vs reference"): "rates of these two errors "
+                                                           "against `spacetime_dofs`",
+        "finest exact error": "smallest exact error of the family",
+        "reference's exact error": "exact error of the reference run",
+    }),
+    ("Stability (`stability.md`, `stability-vi.md`)", False, {
+        "case": "what was run",
+        "status": "`ok`, or `refused:` and the error the library raised",
+        "seconds": "wall seconds of the case; `pipeline-cost.md`: of the job, summed over "
+                   "the part's jobs",
+        "h_min": "shortest edge",
+        ("min_angle", "min angle [°]"): "smallest angle of the (fine) mesh, degrees",
+        "galerkin_ok": "(f,u_h) < (f,u), the Galerkin bound",
+        "spd": "the free block of the stiffness matrix has a positive smallest eigenvalue",
+        "cond": "its condition number λ_max / λ_min",
+        "quad_change_over_err2": "as `change_over_error_squared`",
+        "finite": "every computed value is finite",
+        "energy growth": "largest increase of the discrete energy between time steps, "
+                         "relative to its largest value",
+        "min gap": "smallest coarse mean of u_h − χ (≥ 0: feasible)",
+        "complementarity": "obstacle: max |λ_H · gap|; friction: max ||λ_H| − F| where the "
+                           "coarse mean of u_h moves",
+        "λ in set": "λ_H ≤ 0, or |λ_H| ≤ F, at every step",
+        "pdas iterations (max)": "most PDAS iterations of any step",
+        "uzawa": "most Uzawa iterations, or why Uzawa stopped",
+        "max |u_pdas − u_uzawa|": "largest nodal difference of the two solvers' u_h",
+        "|u − u_free| / |u_free|": "max-norm distance to the unconstrained solution, relative",
+        "max |λ|": "largest |λ_H|",
+        "max |coarse mean of u|": "largest |mean of u_h over an element of T_H|",
+        "contact fraction": "fraction of the elements of T_H with λ_H < 0",
+        "max gap at t = τ": "u₀ = χ: the largest coarse gap after the first step",
+    }),
+    ("Cost (`pipeline-cost.md`, `benchmark-assembly.md`, `benchmark-assembly.csv`)", False, {
+        "part": "elliptic (Examples 1–3), parabolic (Examples 4, 5), figures and tables",
+        "jobs": "jobs of the part",
+        "job": "a job's benchmark file under `results/benchmarks/`",
+        "max_rss_mb": "peak resident memory of the job, MiB",
+        "peak_rss_mb": "peak resident memory, MiB: the largest job of the part; benchmarks: "
+                       "the case's process",
+        "level": "the mesh `disk_uniform(level)` (`vi_compressed.md`: T_H)",
+        ("triangles", "pairs"): "triangles N_T and unordered element pairs N_T(N_T − 1)/2",
+        "threads": "numba threads",
+        "floor_s": "one kernel evaluation per pair of centroids, parallel: a lower bound",
+        ("singular_s", "far_s", "exterior_s"): "seconds for the touching pairs, the "
+                                               "separated pairs, the exterior term κ",
+        "assembly_s": "assembly seconds",
+        "pairs_per_s": "`pairs` / `assembly_s`",
+        "ratio_to_floor": "`assembly_s` / `floor_s`",
+    }),
+    ("Compressed operator (`benchmarks/compressed.md`, `benchmarks/vi_compressed.md`)",
+     False, {
+        "size": "mesh: uniform level or graded h",
+        "matvec_s": "seconds of one product, mean of three",
+        "iterations": "preconditioned CG iterations",
+        "solve_s": "solve seconds",
+        ("nbytes_mb", "operator_mb"): "memory of the compressed operator, MiB",
+        ("matvec_rel_diff", "energy_rel_diff"): "relative difference to the dense matrix of "
+                                                "a product with a random vector, and of "
+                                                "(f,u_h)",
+        "dense_assembly_s": "dense assembly seconds on the same mesh",
+        ("seconds_2_processes", "seconds_1_process", "note"): "published PyNucleus "
+                                                              "timings (2 MPI processes, 1), "
+                                                              "remarks",
+        "order": "Chebyshev interpolation order",
+        "preconditioner_s": "setting up the preconditioner",
+        "pdas_steps": "PDAS active-set steps",
+        "inner_iterations": "PCG iterations over all PDAS steps",
+        "inner_per_solve": "PCG iterations of each PDAS step, in order",
+        "dense_solve_s": "the dense PDAS solve on the same mesh",
+        ("du_rel", "dlam_rel"): "max |u − u_dense| / max |u_dense|, the same for λ_H",
+    }),
+    ("Bad input (`bad-inputs.md`)", False, {
+        "parameter": "the argument at fault",
+        "input": "what was passed",
+        "message": "the message the user gets (first line, shortened)",
+    }),
+]
+
+
+def _names(columns):
+    return (columns,) if isinstance(columns, str) else tuple(columns)
+
+
+def definitions():
+    """{column: meaning} over all groups (a later group's repeat wins)."""
+    return {name: meaning for _, _, cols in GROUPS for columns, meaning in cols.items()
+            for name in _names(columns)}
+
+
+def markdown(readme_only=False):
+    """The glossary as compact Markdown: one paragraph per group."""
+    parts = []
+    for title, in_readme, cols in GROUPS:
+        if readme_only and not in_readme:
+            continue
+        items = "; ".join(", ".join(f"`{c}`" for c in _names(columns)) + f": {meaning}"
+                          for columns, meaning in cols.items())
+        parts.append(f"**{title}.** {items}.")
+    return "\n\n".join(parts)
+
+
+def _rst_inline(text):
+    """Markdown inline text as reStructuredText: `code` spans become literals; | and *
+    (substitutions and emphasis in RST) and backslashes are escaped elsewhere."""
+    out = []
+    for k, piece in enumerate(re.split(r"`([^`]+)`", text)):
+        if k % 2:
+            out.append(f"``{piece}``")
+        else:
+            out.append(re.sub(r"([\\|*])", r"\\\1", piece))
+    return "".join(out)
+
+
+def _wrap(text, width, indent):
+    """``text`` wrapped at spaces outside ``literals`` (a column name stays on one line)."""
+    keep = re.sub(r"``.*?``", lambda m: m.group(0).replace(" ", "\0"), text)
+    lines = textwrap.wrap(keep, width, initial_indent=indent, subsequent_indent=indent,
+                          break_long_words=False, break_on_hyphens=False)
+    return "\n".join(lines).replace("\0", " ")
+
+
+def rst(underline="~", width=92):
+    """The glossary as reStructuredText: one subsection per group (titles underlined
+    with ``underline``), a definition list of its columns.  The report's front page is
+    also a Jinja template, so Jinja delimiters are refused."""
+    parts = []
+    for title, _, cols in GROUPS:
+        head = _rst_inline(title)
+        items = [", ".join(f"``{c}``" for c in _names(columns)) + "\n"
+                 + _wrap(_rst_inline(meaning), width, "    ")
+                 for columns, meaning in cols.items()]
+        parts.append(f"{head}\n{underline * len(head)}\n\n" + "\n".join(items))
+    text = "\n\n".join(parts)
+    for delim in ("{{", "{%", "{#"):
+        if delim in text:
+            raise ValueError(f"the glossary contains the Jinja delimiter {delim!r}")
+    return text
