@@ -45,6 +45,7 @@ localrules:
     fig14,
     parabolic_summary,
     rates,
+    results_page,
 
 
 rule all:
