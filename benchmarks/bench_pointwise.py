@@ -1,0 +1,162 @@
+"""Pointwise (−Δ)ˢu_h at the quadrature points: dense against compressed path.
+
+On uniform disks ``disk_uniform(level)``, u_h the P1 interpolant of the
+Example 1 solution C_s(1 − |x|²)^s (zero on ∂Ω), values of (−Δ)ˢu_h at the
+points of ``triangle_rule(order)`` on every element
+(:func:`fracfem.pointwise.fractional_laplacian_qp`).  Per level: points,
+mesh edges, seconds of the dense path (run only while the previous level's
+time scaled by the ratio of point–edge pairs stays below ``--dense-limit``,
+else extrapolated that way and marked so) and of the compressed path (with
+its phases), their largest difference relative to max|values| where both
+ran, and the peak RSS of each run's process.
+
+    python benchmarks/bench_pointwise.py --levels 4 5 6 7 8 --md benchmarks/pointwise.md
+
+Each run is its own process (peak RSS per run); the load average of the
+machine is recorded before and after every run.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def run_case(level: int, method: str, s: float, order: int, tol: float, out: str) -> dict:
+    import fracfem as ff
+    from fracfem.exact import disk_solution
+    from fracfem.pointwise import fractional_laplacian_qp, normal_derivative_jumps
+
+    small = ff.disk_uniform(2)
+    fractional_laplacian_qp(small, np.zeros(small.p.shape[1]), s, order, method=method)
+    mesh = ff.disk_uniform(level)
+    u = disk_solution(mesh.p, s)
+    phases = {}
+
+    class Phases(logging.Handler):
+        def emit(self, record):
+            m = re.search(r"trees ([\d.]+) s, far field ([\d.]+) s, near field ([\d.]+) s",
+                          record.getMessage())
+            if m:
+                phases.update(trees_s=float(m[1]), far_s=float(m[2]), near_s=float(m[3]))
+
+    logger = logging.getLogger("fracfem.pointwise")
+    logger.setLevel(logging.INFO)
+    logger.addHandler(Phases())
+    load0 = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    vals, pts, _ = fractional_laplacian_qp(mesh, u, s, order, method=method, tol=tol)
+    seconds = time.perf_counter() - t0
+    np.save(out, vals)
+    edges = normal_derivative_jumps(mesh, u)[0]
+    return dict(level=level, method=method, dofs=len(mesh.interior_nodes()),
+                points=int(vals.size), edges=len(edges), seconds=seconds,
+                peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                load_before=load0, load_after=os.getloadavg()[0], **phases)
+
+
+def _case(level, method, args, out):
+    cmd = [sys.executable, __file__, "--case", str(level), method, str(args.s),
+           str(args.order), str(args.tol), out]
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode:
+        raise RuntimeError(f"{' '.join(cmd)} failed:\n{res.stderr[-3000:]}")
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--levels", type=int, nargs="+", default=[4, 5, 6, 7])
+    ap.add_argument("--s", type=float, default=0.5)
+    ap.add_argument("--order", type=int, default=4)
+    ap.add_argument("--tol", type=float, default=1e-8)
+    ap.add_argument("--dense-limit", type=float, default=120.0,
+                    help="run the dense path while its predicted seconds stay below this")
+    ap.add_argument("--md")
+    ap.add_argument("--case", nargs=6, help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.case:
+        lv, meth, s, order, tol, out = args.case
+        print(json.dumps(run_case(int(lv), meth, float(s), int(order), float(tol), out)))
+        return
+    rows = []
+    last_dense = None                  # (seconds, pairs) of the last dense run
+    start_load = os.getloadavg()
+    t_start = time.time()
+    with tempfile.TemporaryDirectory() as tmp:
+        for lv in args.levels:
+            comp = _case(lv, "compressed", args, f"{tmp}/c{lv}.npy")
+            pairs = comp["points"] * comp["edges"]
+            row = dict(level=lv, dofs=comp["dofs"], points=comp["points"],
+                       edges=comp["edges"], compressed_s=comp["seconds"],
+                       trees_s=comp.get("trees_s"), far_s=comp.get("far_s"),
+                       near_s=comp.get("near_s"),
+                       compressed_rss_mb=comp["peak_rss_mb"],
+                       load=f"{comp['load_before']:.1f}-{comp['load_after']:.1f}")
+            predicted = None if last_dense is None else last_dense[0] * pairs / last_dense[1]
+            if predicted is None or predicted <= args.dense_limit:
+                dense = _case(lv, "dense", args, f"{tmp}/d{lv}.npy")
+                last_dense = (dense["seconds"], pairs)
+                d, c = np.load(f"{tmp}/d{lv}.npy"), np.load(f"{tmp}/c{lv}.npy")
+                row.update(dense_s=f"{dense['seconds']:.4g}",
+                           dense_rss_mb=dense["peak_rss_mb"],
+                           max_rel_diff=float(np.abs(c - d).max() / np.abs(d).max()),
+                           load=row["load"] + f", {dense['load_before']:.1f}"
+                                              f"-{dense['load_after']:.1f}")
+            else:
+                row.update(dense_s=f"~{predicted:.4g} (extrapolated)", dense_rss_mb=np.nan,
+                           max_rel_diff=np.nan)
+            rows.append(row)
+            print(f"level {lv}: {row['points']} points, {row['edges']} edges, "
+                  f"dense {row['dense_s']} s, compressed {row['compressed_s']:.2f} s "
+                  f"(near {row['near_s']:.2f}, far {row['far_s']:.2f}, "
+                  f"trees {row['trees_s']:.2f}), diff {row['max_rel_diff']:.2e}, "
+                  f"rss {row['compressed_rss_mb']:.0f} MB, load {row['load']}", flush=True)
+    end_load = os.getloadavg()
+    if args.md:
+        import pandas as pd
+        df = pd.DataFrame(rows)
+        prev = df["compressed_s"].shift(1)
+        df["compressed_growth"] = (df["compressed_s"] / prev).round(2)
+        df["points_growth"] = (df["points"] / df["points"].shift(1)).round(2)
+        cols = ["level", "dofs", "points", "edges", "dense_s", "compressed_s",
+                "near_s", "far_s", "trees_s", "compressed_growth", "points_growth",
+                "max_rel_diff", "dense_rss_mb", "compressed_rss_mb", "load"]
+        with open(args.md, "w") as fh:
+            fh.write("# Pointwise (−Δ)ˢu_h: dense and compressed path\n\n")
+            fh.write(
+                f"`python benchmarks/bench_pointwise.py --levels "
+                f"{' '.join(map(str, args.levels))} --md {args.md}`: uniform disks, "
+                f"s = {args.s}, points of the order-{args.order} triangle rule, u_h the "
+                f"P1 interpolant of the Example 1 solution, tol = {args.tol:g}; "
+                f"{os.cpu_count()} cores, {time.strftime('%Y-%m-%d', time.gmtime(t_start))}."
+                "\n\nMachine load (1-minute load average; the machine is shared with "
+                "other jobs, so seconds are wall times inflated by them): "
+                f"{start_load[0]:.1f} / {start_load[1]:.1f} / {start_load[2]:.1f} "
+                f"(1, 5, 15 min) at the start, {end_load[0]:.1f} / {end_load[1]:.1f} / "
+                f"{end_load[2]:.1f} at the end; column `load` gives it before-after "
+                "each run (compressed, then dense).\n\n"
+                "dense_s: the dense path (every point against every edge); where it was "
+                "not run, the last measured dense time scaled by the ratio of "
+                "point–edge pairs. compressed_s: the compressed path, of which near_s "
+                "(point–edge pairs of near blocks by the dense rules), far_s (H² "
+                "passes) and trees_s (cluster and block trees, sources); "
+                "compressed_growth and points_growth: ratios to the previous level. "
+                "max_rel_diff: max|compressed − dense| / max|dense|. *_rss_mb: peak "
+                "resident memory of the run's process.\n\n")
+            fh.write(df[cols].to_markdown(index=False, floatfmt=".4g"))
+            fh.write("\n")
+
+
+if __name__ == "__main__":
+    main()
