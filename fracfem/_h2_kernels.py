@@ -285,9 +285,10 @@ def downward(G, E, level_nodes, level_ptr, child0, child1, m):  # pragma: no cov
 
 
 @njit(cache=True, parallel=True)
-def leaf_evaluate(G, cent, perm, leaves, cl_start, cl_end, boxes, z, out):  # pragma: no cover
+def leaf_evaluate(G, cent, perm, leaves, cl_start, cl_end, boxes, z, out,
+                  nder=6):  # pragma: no cover
     """out[T, r, :] = (g, ∂x g, ∂y g, ∂xx g, ∂xy g, ∂yy g)(c_T) of the local
-    expansion g = Σ_α G[leaf, r, α] L_α."""
+    expansion g = Σ_α G[leaf, r, α] L_α (the first ``nder`` of them)."""
     m = z.shape[0]
     p = m * m
     nrhs = G.shape[1]
@@ -300,7 +301,7 @@ def leaf_evaluate(G, cent, perm, leaves, cl_start, cl_end, boxes, z, out):  # pr
             T = perm[k]
             _basis_2d(cent[T, 0], cent[T, 1], boxes[c], z, bx, by, L)
             for r in range(nrhs):
-                for d in range(6):
+                for d in range(nder):
                     acc = 0.0
                     for a in range(p):
                         acc += G[c, r, a] * L[d, a]

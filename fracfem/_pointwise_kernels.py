@@ -233,73 +233,70 @@ def riesz_edges(x, edata, ba, bb, bu, s, logl0, near, ratios, gl_x, gl_w, gl_off
 
 
 @njit(cache=True, parallel=True)
-def riesz_near(x, tperm, tstart, tend, rows, ptr, cols, sperm, sstart, send, src_edge,
-               src_g, nsrc, layer, edata, ba, bb, bu, s, logl0, near, ratios, gl_x, gl_w,
-               gl_off, bratios, bgl_x, bgl_w, bgl_off, nx, nw, piece, out):  # pragma: no cover
+def riesz_near(x, tperm, tstart, tend, rows, ptr, cols, sstart, send, src_g, nsrc, layer,
+               edata, ba, bb, bu, s, logl0, near, ratios, gl_x, gl_w, gl_off, bratios,
+               bgl_x, bgl_w, bgl_off, nx, nw, piece, out):  # pragma: no cover
     """out[i] += the near-block share of one layer at x_i (layer 0: single
     layer over ``edata``, 1: double layer over ``ba, bb, bu``; arguments as in
     :func:`riesz_edges`).
 
     The sources of the far field are the points of each edge's rule of the
-    farthest distance class, ``nsrc`` per edge (source j: point src_g[j] of
-    edge src_edge[j]; one midpoint where that rule is the corrected midpoint
-    rule).  A pair (x, source) of a near block adds the source's own term
-    where the edge is in the farthest class for x (as it would in a far
-    block) and 1/nsrc of the edge's whole term, by the rule of its class,
-    otherwise: the sum over all blocks is then the sum of
-    :func:`riesz_edges`.  Target clusters (rows) in parallel: every point
-    lies in one leaf, so no two threads write the same entry.
+    farthest distance class, ``nsrc`` per edge (one midpoint where that rule
+    is the corrected midpoint rule).  Here the edge arrays hold one row per
+    source in the order of the source tree (source k: point src_g[k] of the
+    edge in row k; the sources of cluster τ are rows sstart[τ]:send[τ]).  A
+    pair (x, source) of a near block adds the source's own term where the
+    edge is in the farthest class for x (as it would in a far block) and
+    1/nsrc of the edge's whole term, by the rule of its class, otherwise:
+    the sum over all blocks is then the sum of :func:`riesz_edges`.  Target
+    clusters (rows) in parallel: every point lies in one leaf, so no two
+    threads write the same entry.
     """
     near2 = near * near
     rat2 = ratios * ratios
     brat2 = bratios * bratios
+    far2 = rat2[rat2.shape[0] - 1]
+    bfar2 = brat2[brat2.shape[0] - 1]
+    goff = gl_off[rat2.shape[0]]
+    bgoff = bgl_off[brat2.shape[0]]
     s2 = 2.0 * s
     l0s = np.exp(-s2 * logl0)
     ex = -1.0 - s
     for ri in prange(rows.shape[0]):
-        # the sources of every near block of this target leaf
-        count = 0
-        for bi in range(ptr[ri], ptr[ri + 1]):
-            count += send[cols[bi]] - sstart[cols[bi]]
-        srcs = np.empty(count, dtype=np.int64)
-        count = 0
-        for bi in range(ptr[ri], ptr[ri + 1]):
-            for kk in range(sstart[cols[bi]], send[cols[bi]]):
-                srcs[count] = sperm[kk]
-                count += 1
         tl = rows[ri]
         for k in range(tstart[tl], tend[tl]):
             i = tperm[k]
             x0 = x[i, 0]
             x1 = x[i, 1]
             acc = 0.0
-            for j in srcs:
-                e = src_edge[j]
-                if layer == 0:
-                    if nsrc > 1:
-                        mx = edata[e, 4] - x0
-                        my = edata[e, 5] - x1
-                        if (mx * mx + my * my) * edata[e, 6] >= rat2[rat2.shape[0] - 1]:
-                            g = gl_off[rat2.shape[0]] + src_g[j]
-                            yx = edata[e, 0] + gl_x[g] * (edata[e, 2] - edata[e, 0]) - x0
-                            yy = edata[e, 1] + gl_x[g] * (edata[e, 3] - edata[e, 1]) - x1
-                            acc += edata[e, 7] * gl_w[g] * (
-                                np.exp(-s * np.log(yx * yx + yy * yy)) - l0s) / s2
+            for bi in range(ptr[ri], ptr[ri + 1]):
+                for e in range(sstart[cols[bi]], send[cols[bi]]):
+                    if layer == 0:
+                        if nsrc > 1:
+                            mx = edata[e, 4] - x0
+                            my = edata[e, 5] - x1
+                            if (mx * mx + my * my) * edata[e, 6] >= far2:
+                                g = goff + src_g[e]
+                                yx = edata[e, 0] + gl_x[g] * (edata[e, 2] - edata[e, 0]) - x0
+                                yy = edata[e, 1] + gl_x[g] * (edata[e, 3] - edata[e, 1]) - x1
+                                acc += edata[e, 7] * gl_w[g] * (
+                                    np.exp(-s * np.log(yx * yx + yy * yy)) - l0s) / s2
+                                continue
+                        acc += single_term(x0, x1, edata, e, s, logl0, l0s, near2, rat2,
+                                           gl_x, gl_w, gl_off, nx, nw, piece) / nsrc
+                    else:
+                        tx = bb[e, 0] - ba[e, 0]
+                        ty = bb[e, 1] - ba[e, 1]
+                        mx = ba[e, 0] + 0.5 * tx - x0
+                        my = ba[e, 1] + 0.5 * ty - x1
+                        if mx * mx + my * my >= bfar2 * (tx * tx + ty * ty):
+                            g = bgoff + src_g[e]
+                            yx = ba[e, 0] + bgl_x[g] * tx - x0
+                            yy = ba[e, 1] + bgl_x[g] * ty - x1
+                            uu = bu[e, 0] + bgl_x[g] * (bu[e, 1] - bu[e, 0])
+                            acc += bgl_w[g] * uu * (yx * ty - yy * tx) * (
+                                yx * yx + yy * yy) ** ex
                             continue
-                    acc += single_term(x0, x1, edata, e, s, logl0, l0s, near2, rat2, gl_x,
-                                       gl_w, gl_off, nx, nw, piece) / nsrc
-                else:
-                    tx = bb[e, 0] - ba[e, 0]
-                    ty = bb[e, 1] - ba[e, 1]
-                    mx = ba[e, 0] + 0.5 * tx - x0
-                    my = ba[e, 1] + 0.5 * ty - x1
-                    if (mx * mx + my * my) >= brat2[brat2.shape[0] - 1] * (tx * tx + ty * ty):
-                        g = bgl_off[brat2.shape[0]] + src_g[j]
-                        yx = ba[e, 0] + bgl_x[g] * tx - x0
-                        yy = ba[e, 1] + bgl_x[g] * ty - x1
-                        uu = bu[e, 0] + bgl_x[g] * (bu[e, 1] - bu[e, 0])
-                        acc += bgl_w[g] * uu * (yx * ty - yy * tx) * (yx * yx + yy * yy) ** ex
-                        continue
-                    acc += double_term(x0, x1, ba, bb, bu, e, s, near2, brat2, bgl_x, bgl_w,
-                                       bgl_off, nx, nw, piece) / nsrc
+                        acc += double_term(x0, x1, ba, bb, bu, e, s, near2, brat2, bgl_x,
+                                           bgl_w, bgl_off, nx, nw, piece) / nsrc
             out[i] += acc

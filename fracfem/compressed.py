@@ -287,7 +287,7 @@ def far_values(tt: dict, ts: dict, far: np.ndarray, x: np.ndarray, points: np.nd
                     comps=comps, logl0=logl0)
     K = f["K"] if len(comps) > 1 else [f["K"]]
     for c in range(len(comps)):
-        out += _far_pass(f, src[c], K[c])[:, 0, 0]
+        out += _far_pass(f, src[c], K[c], nder=1)[:, 0, 0]
     return out
 
 
@@ -365,6 +365,24 @@ def _tree_data(tree: dict, points: np.ndarray, z: np.ndarray) -> dict:
                 level_ptr=tree["level_ptr"], E=hk.transfers(tree["boxes"], tree["parent"], z))
 
 
+def _unique_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First index and inverse of np.unique(keys, axis=0) for integer rows,
+    through one mixed-radix int64 per row when the column ranges allow (the
+    same lexicographic order, an order of magnitude faster)."""
+    if not len(keys):
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    lo = keys.min(axis=0)
+    span = keys.max(axis=0) - lo + 1
+    if math.prod(int(r) for r in span) >= 2 ** 62:
+        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        return first, inverse.reshape(-1)
+    packed = np.zeros(len(keys), dtype=np.int64)
+    for c in range(keys.shape[1]):
+        packed = packed * span[c] + (keys[:, c] - lo[c])
+    _, first, inverse = np.unique(packed, return_index=True, return_inverse=True)
+    return first, inverse
+
+
 def _far_blocks(tt: dict, ts: dict, far: np.ndarray, tdata: dict, sdata: dict,
                 z: np.ndarray, expo: float, comps=(-1,), logl0: float = 0.0) -> dict:
     """Admissible blocks grouped by target cluster, with one coupling matrix per
@@ -372,8 +390,7 @@ def _far_blocks(tt: dict, ts: dict, far: np.ndarray, tdata: dict, sdata: dict,
     (comp 0, 1) or (|r|^(2·expo) − ℓ₀^(2·expo))/(−2·expo) (comp 2, ℓ₀ = e^logl0);
     with several comps K is a list, one array per comp."""
     fr = far
-    _, first, inverse = np.unique(block_keys(tt["dyadic"], ts["dyadic"], fr), axis=0,
-                                  return_index=True, return_inverse=True)
+    first, inverse = _unique_rows(block_keys(tt["dyadic"], ts["dyadic"], fr))
     K = [hk.coupling_matrices(tdata["boxes"], sdata["boxes"], fr[first, 0].copy(),
                               fr[first, 1].copy(), z, expo, comp, logl0) for comp in comps]
     # blocks grouped by coupling matrix
@@ -384,10 +401,12 @@ def _far_blocks(tt: dict, ts: dict, far: np.ndarray, tdata: dict, sdata: dict,
                 grp_ptr=grp_ptr, grp_rows=fr[order, 0].copy(), grp_cols=fr[order, 1].copy())
 
 
-def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None) -> np.ndarray:
+def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None,
+              nder: int = 6) -> np.ndarray:
     """Σ over admissible blocks of the kernel applied to source functionals
     (src (n_sources, nrhs, 6)); returns value, gradient and Hessian of the
-    result at every target point (n_targets, nrhs, 6)."""
+    result at every target point (n_targets, nrhs, 6; only the first ``nder``
+    of them computed, the others zero)."""
     S, T, z = f["src"], f["tgt"], f["z"]
     m = z.shape[0]
     nrhs = src.shape[1]
@@ -401,7 +420,7 @@ def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None) -> np.ndarr
     hk.downward(G, T["E"], T["level_nodes"], T["level_ptr"], T["child0"], T["child1"], m)
     out = np.zeros((len(T["cent"]), nrhs, 6))
     hk.leaf_evaluate(G, T["cent"], T["perm"], T["leaves"], T["start"], T["end"],
-                     T["boxes"], z, out)
+                     T["boxes"], z, out, nder)
     return out
 
 

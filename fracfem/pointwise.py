@@ -427,8 +427,16 @@ def _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out):
         out += far_values(tt, ts, far, x, pts, m, expo, src, comps, logl0)
         t3 = time.perf_counter()
         rows, ptr, cols = near_lists(near)
-        _pk.riesz_near(x, tt["perm"], tt["start"], tt["end"], rows, ptr, cols, ts["perm"],
-                       ts["start"], ts["end"], sedge, sg, nsrc, layer, *args, out)
+        # one row of edge data per source, in source-tree order
+        rowof = sedge[ts["perm"]]
+        edge_args = list(args[:4])
+        if layer == 0:
+            edge_args[0] = np.ascontiguousarray(edata[rowof])
+        else:
+            edge_args[1:4] = [np.ascontiguousarray(v[rowof]) for v in (ba, bb, bu)]
+        _pk.riesz_near(x, tt["perm"], tt["start"], tt["end"], rows, ptr, cols, ts["start"],
+                       ts["end"], np.ascontiguousarray(sg[ts["perm"]]), nsrc, layer,
+                       *edge_args, *args[4:], out)
         tim["trees"] += t2 - t1
         tim["far"] += t3 - t2
         tim["near"] += time.perf_counter() - t3
