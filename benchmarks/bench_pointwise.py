@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bench_validation import best      # this script's folder is on sys.path
+
 
 def run_case(level: int, method: str, s: float, order: int, tol: float, out: str) -> dict:
     import fracfem as ff
@@ -67,9 +69,72 @@ def run_case(level: int, method: str, s: float, order: int, tol: float, out: str
                 load_before=load0, load_after=os.getloadavg()[0], **phases)
 
 
+def sample_case(level: int, s: float, order: int, n: int, out: str) -> dict:
+    """The dense path at n random points of the rule (seed 0), for levels
+    where it is too slow on all of them: values at a point do not depend on
+    the other points."""
+    import fracfem as ff
+    from fracfem.exact import disk_solution
+    from fracfem.pointwise import fractional_laplacian_at, quadrature_points
+
+    mesh = ff.disk_uniform(level)
+    u = disk_solution(mesh.p, s)
+    u[mesh.boundary_nodes()] = 0.0
+    pts, _, _ = quadrature_points(mesh, order)
+    nq = pts.shape[1]
+    idx = np.sort(np.random.default_rng(0).choice(pts.shape[0] * nq, n, replace=False))
+    t0 = time.perf_counter()
+    vals = fractional_laplacian_at(mesh, u, pts.reshape(-1, 2)[idx], idx // nq, s,
+                                   method="dense")
+    np.save(out, np.column_stack([idx, vals]))
+    return dict(seconds=time.perf_counter() - t0)
+
+
+def crossover(s_values=(0.5, 0.3), repeat: int = 3) -> list[dict]:
+    """Dense and compressed seconds (best of ``repeat``) on small meshes and
+    for few points on a large one: where "auto" should switch."""
+    import fracfem as ff
+    from fracfem.exact import disk_solution
+    from fracfem.pointwise import (fractional_laplacian_at, fractional_laplacian_qp,
+                                   quadrature_points)
+
+    cases = [(lv, order, None) for lv in (3, 4, 5) for order in (2, 4)]
+    cases += [(6, 4, n) for n in (1000, 4000)]
+    small = ff.disk_uniform(4)
+    rows = []
+    for s in s_values:
+        for meth in ("dense", "compressed"):
+            fractional_laplacian_qp(small, disk_solution(small.p, s), s, 4, method=meth)
+        for lv, order, n in cases:
+            mesh = ff.disk_uniform(lv)
+            u = disk_solution(mesh.p, s)
+            u[mesh.boundary_nodes()] = 0.0
+            pts, _, _ = quadrature_points(mesh, order)
+            nq = pts.shape[1]
+            idx = np.arange(pts.shape[0] * nq)
+            if n is not None:
+                idx = np.sort(np.random.default_rng(0).choice(idx, n, replace=False))
+            x, el = pts.reshape(-1, 2)[idx], idx // nq
+            sec = {m: best(lambda m=m: fractional_laplacian_at(mesh, u, x, el, s, method=m),
+                           repeat) for m in ("dense", "compressed")}
+            edges = mesh.facets.shape[1]
+            rows.append(dict(s=s, level=lv, order=order, points=len(idx), edges=edges,
+                             pairs=float(len(idx) * edges), dense_s=sec["dense"],
+                             compressed_s=sec["compressed"],
+                             speedup=sec["dense"] / sec["compressed"]))
+            print(rows[-1], flush=True)
+    return rows
+
+
 def _case(level, method, args, out):
-    cmd = [sys.executable, __file__, "--case", str(level), method, str(args.s),
-           str(args.order), str(args.tol), out]
+    if method == "sample":
+        cmd = [sys.executable, __file__, "--sample", str(level), str(args.s),
+               str(args.order), str(args.samples), out]
+    elif method == "crossover":
+        cmd = [sys.executable, __file__, "--crossover-case"]
+    else:
+        cmd = [sys.executable, __file__, "--case", str(level), method, str(args.s),
+               str(args.order), str(args.tol), out]
     res = subprocess.run(cmd, capture_output=True, text=True)
     if res.returncode:
         raise RuntimeError(f"{' '.join(cmd)} failed:\n{res.stderr[-3000:]}")
@@ -84,12 +149,25 @@ def main(argv=None):
     ap.add_argument("--tol", type=float, default=1e-8)
     ap.add_argument("--dense-limit", type=float, default=120.0,
                     help="run the dense path while its predicted seconds stay below this")
+    ap.add_argument("--samples", type=int, default=2000,
+                    help="points at which the dense path checks levels it does not run on")
+    ap.add_argument("--crossover", action="store_true",
+                    help="also time both paths on small meshes (where 'auto' switches)")
     ap.add_argument("--md")
     ap.add_argument("--case", nargs=6, help=argparse.SUPPRESS)
+    ap.add_argument("--sample", nargs=5, help=argparse.SUPPRESS)
+    ap.add_argument("--crossover-case", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.case:
         lv, meth, s, order, tol, out = args.case
         print(json.dumps(run_case(int(lv), meth, float(s), int(order), float(tol), out)))
+        return
+    if args.sample:
+        lv, s, order, n, out = args.sample
+        print(json.dumps(sample_case(int(lv), float(s), int(order), int(n), out)))
+        return
+    if args.crossover_case:
+        print(json.dumps(crossover()))
         return
     rows = []
     last_dense = None                  # (seconds, pairs) of the last dense run
@@ -112,18 +190,23 @@ def main(argv=None):
                 d, c = np.load(f"{tmp}/d{lv}.npy"), np.load(f"{tmp}/c{lv}.npy")
                 row.update(dense_s=f"{dense['seconds']:.4g}",
                            dense_rss_mb=dense["peak_rss_mb"],
-                           max_rel_diff=float(np.abs(c - d).max() / np.abs(d).max()),
+                           max_rel_diff=f"{np.abs(c - d).max() / np.abs(d).max():.3g}",
                            load=row["load"] + f", {dense['load_before']:.1f}"
                                               f"-{dense['load_after']:.1f}")
             else:
+                sample = _case(lv, "sample", args, f"{tmp}/s{lv}.npy")
+                idx, d = np.load(f"{tmp}/s{lv}.npy").T
+                c = np.load(f"{tmp}/c{lv}.npy").reshape(-1)
                 row.update(dense_s=f"~{predicted:.4g} (extrapolated)", dense_rss_mb=np.nan,
-                           max_rel_diff=np.nan)
+                           max_rel_diff=f"{np.abs(c[idx.astype(int)] - d).max() / np.abs(c).max():.3g}"
+                                        f" ({args.samples} points, {sample['seconds']:.0f} s)")
             rows.append(row)
             print(f"level {lv}: {row['points']} points, {row['edges']} edges, "
                   f"dense {row['dense_s']} s, compressed {row['compressed_s']:.2f} s "
                   f"(near {row['near_s']:.2f}, far {row['far_s']:.2f}, "
-                  f"trees {row['trees_s']:.2f}), diff {row['max_rel_diff']:.2e}, "
+                  f"trees {row['trees_s']:.2f}), diff {row['max_rel_diff']}, "
                   f"rss {row['compressed_rss_mb']:.0f} MB, load {row['load']}", flush=True)
+        cross = _case(0, "crossover", args, "") if args.crossover else None
     end_load = os.getloadavg()
     if args.md:
         import pandas as pd
@@ -154,10 +237,24 @@ def main(argv=None):
                 "(point–edge pairs of near blocks by the dense rules), far_s (H² "
                 "passes) and trees_s (cluster and block trees, sources); "
                 "compressed_growth and points_growth: ratios to the previous level. "
-                "max_rel_diff: max|compressed − dense| / max|dense|. *_rss_mb: peak "
-                "resident memory of the run's process.\n\n")
+                "max_rel_diff: max|compressed − dense| / max|dense|; where the dense "
+                "path was not run on all points, at that many random points (seed 0) "
+                "relative to max|compressed| over all points, with the dense path's "
+                "seconds for them. *_rss_mb: peak resident memory of the run's process."
+                "\n\n")
             fh.write(df[cols].to_markdown(index=False, floatfmt=".4g"))
             fh.write("\n")
+            if cross is not None:
+                fh.write(
+                    "\n## Where \"auto\" switches\n\n"
+                    "Both paths on the same points in one process, best of 3 "
+                    "(`--crossover`): every point of the order-2 and order-4 rules on "
+                    "disk_uniform(3…5), and 1,000 or 4,000 random points of the order-4 "
+                    "rule on disk_uniform(6), for s = 0.5 (inverse square root) and "
+                    "s = 0.3 (exp/log). `fractional_laplacian_at(..., method=\"auto\")` "
+                    "takes the compressed path from `AUTO_PAIRS` point–edge pairs on.\n\n")
+                fh.write(pd.DataFrame(cross).to_markdown(index=False, floatfmt=".4g"))
+                fh.write("\n")
 
 
 if __name__ == "__main__":

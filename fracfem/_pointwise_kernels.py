@@ -255,8 +255,8 @@ def riesz_near(x, tperm, tstart, tend, rows, ptr, cols, sstart, send, src_g, nsr
     near2 = near * near
     rat2 = ratios * ratios
     brat2 = bratios * bratios
-    far2 = rat2[rat2.shape[0] - 1]
-    bfar2 = brat2[brat2.shape[0] - 1]
+    far2 = max(rat2[rat2.shape[0] - 1], near2)      # the farthest class starts here
+    bfar2 = max(brat2[brat2.shape[0] - 1], near2)
     goff = gl_off[rat2.shape[0]]
     bgoff = bgl_off[brat2.shape[0]]
     s2 = 2.0 * s

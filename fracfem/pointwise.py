@@ -388,6 +388,13 @@ def _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out):
     """
     t0 = time.perf_counter()
     m = min(chebyshev_order(tol) + 1, 14)
+    # a single class beyond `near` is two with the same rule, both from `near`
+    # on: the kernels then always find the start of the farthest class
+    if not opt.ratios:
+        opt = replace(opt, ratios=(opt.near,), points=2 * tuple(opt.points))
+    if not opt.boundary_ratios:
+        opt = replace(opt, boundary_ratios=(opt.near,),
+                      boundary_points=2 * tuple(opt.boundary_points))
     args = _kernel_args(edata, ba, bb, bu, s, ell0, opt)
     logl0 = args[5]
     root = square_around(x, edata[:, :2], edata[:, 2:4], ba, bb)
@@ -403,7 +410,8 @@ def _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out):
             tv = b - a
             src[0, :, 0, 3:6] = (edata[:, 7] / 24.0)[:, None] * np.column_stack(
                 [tv[:, 0] ** 2, tv[:, 0] * tv[:, 1], tv[:, 1] ** 2])
-        ratio = (opt.ratios[-1] if len(opt.ratios) else opt.near) + (0.5 if n else 0.0)
+        # the farthest class starts at this distance ratio from the midpoint
+        ratio = max(opt.ratios[-1], opt.near) + (0.5 if n else 0.0)
         layers.append((0, pts, sedge, sg, max(n, 1), np.sqrt(1.0 / edata[sedge, 6]), ratio,
                        src, (2,), -s))
     if len(ba):
@@ -415,7 +423,7 @@ def _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out):
         src = np.zeros((2, len(pts), 1, 6))
         src[0, :, 0, 0] = wu * tv[:, 1]
         src[1, :, 0, 0] = -wu * tv[:, 0]
-        ratio = (opt.boundary_ratios[-1] if len(opt.boundary_ratios) else opt.near) + 0.5
+        ratio = max(opt.boundary_ratios[-1], opt.near) + 0.5
         layers.append((1, pts, sedge, sg, n, np.linalg.norm(tv, axis=1), ratio, src,
                        (0, 1), -1.0 - s))
     tim = dict(trees=time.perf_counter() - t0, far=0.0, near=0.0)

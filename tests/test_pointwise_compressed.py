@@ -101,6 +101,15 @@ def test_raised_options_gauss_sources():
     assert rel_diff(comp, dense) <= 1e-6
 
 
+def test_single_boundary_class_and_wide_near_zone():
+    # one Gauss rule for every boundary edge beyond `near`, and a sinh zone
+    # reaching past the last ratio: the far field must leave both alone
+    opt = PointwiseOptions(near=7.0, boundary_ratios=(), boundary_points=(6,))
+    m = mesh("lshape")
+    comp, dense = both(m, random_u(m, 7, True), 0.4, options=opt)
+    assert rel_diff(comp, dense) <= 1e-6
+
+
 def test_auto_switches_by_pairs(monkeypatch):
     m = mesh("square")
     u = random_u(m, 6, False)
