@@ -52,7 +52,8 @@ def run_case(level: int, method: str, s: float, order: int, tol: float, out: str
             m = re.search(r"trees ([\d.]+) s, far field ([\d.]+) s, near field ([\d.]+) s",
                           record.getMessage())
             if m:
-                phases.update(trees_s=float(m[1]), far_s=float(m[2]), near_s=float(m[3]))
+                phases.update(trees_s=float(m[1]), far_field_s=float(m[2]),
+                              near_field_s=float(m[3]))
 
     logger = logging.getLogger("fracfem.pointwise")
     logger.setLevel(logging.INFO)
@@ -118,8 +119,8 @@ def crossover(s_values=(0.5, 0.3), repeat: int = 3) -> list[dict]:
             sec = {m: best(lambda m=m: fractional_laplacian_at(mesh, u, x, el, s, method=m),
                            repeat) for m in ("dense", "compressed")}
             edges = mesh.facets.shape[1]
-            rows.append(dict(s=s, level=lv, order=order, points=len(idx), edges=edges,
-                             pairs=float(len(idx) * edges), dense_s=sec["dense"],
+            rows.append(dict(s=s, level=lv, rule_order=order, points=len(idx), edges=edges,
+                             point_edge_pairs=float(len(idx) * edges), dense_s=sec["dense"],
                              compressed_s=sec["compressed"],
                              speedup=sec["dense"] / sec["compressed"]))
             print(rows[-1], flush=True)
@@ -179,8 +180,8 @@ def main(argv=None):
             pairs = comp["points"] * comp["edges"]
             row = dict(level=lv, dofs=comp["dofs"], points=comp["points"],
                        edges=comp["edges"], compressed_s=comp["seconds"],
-                       trees_s=comp.get("trees_s"), far_s=comp.get("far_s"),
-                       near_s=comp.get("near_s"),
+                       trees_s=comp.get("trees_s"), far_field_s=comp.get("far_field_s"),
+                       near_field_s=comp.get("near_field_s"),
                        compressed_rss_mb=comp["peak_rss_mb"],
                        load=f"{comp['load_before']:.1f}-{comp['load_after']:.1f}")
             predicted = None if last_dense is None else last_dense[0] * pairs / last_dense[1]
@@ -203,7 +204,7 @@ def main(argv=None):
             rows.append(row)
             print(f"level {lv}: {row['points']} points, {row['edges']} edges, "
                   f"dense {row['dense_s']} s, compressed {row['compressed_s']:.2f} s "
-                  f"(near {row['near_s']:.2f}, far {row['far_s']:.2f}, "
+                  f"(near {row['near_field_s']:.2f}, far {row['far_field_s']:.2f}, "
                   f"trees {row['trees_s']:.2f}), diff {row['max_rel_diff']}, "
                   f"rss {row['compressed_rss_mb']:.0f} MB, load {row['load']}", flush=True)
         cross = _case(0, "crossover", args, "") if args.crossover else None
@@ -215,7 +216,7 @@ def main(argv=None):
         df["compressed_growth"] = (df["compressed_s"] / prev).round(2)
         df["points_growth"] = (df["points"] / df["points"].shift(1)).round(2)
         cols = ["level", "dofs", "points", "edges", "dense_s", "compressed_s",
-                "near_s", "far_s", "trees_s", "compressed_growth", "points_growth",
+                "near_field_s", "far_field_s", "trees_s", "compressed_growth", "points_growth",
                 "max_rel_diff", "dense_rss_mb", "compressed_rss_mb", "load"]
         with open(args.md, "w") as fh:
             fh.write("# Pointwise (−Δ)ˢu_h: dense and compressed path\n\n")
@@ -233,8 +234,9 @@ def main(argv=None):
                 "each run (compressed, then dense).\n\n"
                 "dense_s: the dense path (every point against every edge); where it was "
                 "not run, the last measured dense time scaled by the ratio of "
-                "point–edge pairs. compressed_s: the compressed path, of which near_s "
-                "(point–edge pairs of near blocks by the dense rules), far_s (H² "
+                "point–edge pairs. compressed_s: the compressed path, of which "
+                "near_field_s (point–edge pairs of near blocks by the dense rules), "
+                "far_field_s (H² "
                 "passes) and trees_s (cluster and block trees, sources); "
                 "compressed_growth and points_growth: ratios to the previous level. "
                 "max_rel_diff: max|compressed − dense| / max|dense|; where the dense "
@@ -253,7 +255,10 @@ def main(argv=None):
                     "rule on disk_uniform(6), for s = 0.5 (inverse square root) and "
                     "s = 0.3 (exp/log). `fractional_laplacian_at(..., method=\"auto\")` "
                     "takes the compressed path from `AUTO_PAIRS` point–edge pairs on.\n\n")
-                fh.write(pd.DataFrame(cross).to_markdown(index=False, floatfmt=".4g"))
+                cdf = pd.DataFrame(cross)
+                ints = ["level", "rule_order", "points", "edges"]
+                cdf[ints] = cdf[ints].astype(str)      # else printed as floats
+                fh.write(cdf.to_markdown(index=False, floatfmt=".4g"))
                 fh.write("\n")
 
 

@@ -113,10 +113,10 @@ _INSIDE = 1e-12   # points must have all barycentric coordinates above this
 
 METHODS = ("dense", "compressed", "auto")
 # "auto": the compressed path from this many point–edge pairs on, about 1,000
-# nodes with the order-4 rule (measured on a loaded 2-core machine: compressed
-# 0.9× as fast as dense at 1e7 pairs (disk_uniform(4), order 4), 1.3-3.5× at
-# 0.8-1.5e8 (disk_uniform(5)); 0.5× for 1,000 points on disk_uniform(6),
-# 2.5e7 pairs, where building the source tree dominates; benchmarks/pointwise.md)
+# nodes with the order-4 rule (benchmarks/pointwise.md, loaded 2-core machine:
+# the compressed path is 0.55-1.0× as fast as the dense one at 5e6-1e7 pairs
+# (disk_uniform(4)), 0.75× for 1,000 points on disk_uniform(6) (2.5e7 pairs,
+# building the source tree dominates), 1.4-2.8× from 7.6e7 pairs on)
 AUTO_PAIRS = 4e7
 # cluster trees of the compressed path: points per target leaf, sources per
 # source leaf; admissibility max(diam) ≤ ETA·dist and interpolation order
