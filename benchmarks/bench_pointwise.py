@@ -127,6 +127,63 @@ def crossover(s_values=(0.5, 0.3), repeat: int = 3) -> list[dict]:
     return rows
 
 
+def write_md(path, args, rows, cross, start_load, t_start):
+    """The tables so far (rewritten after every level: a stopped run keeps them)."""
+    import pandas as pd
+
+    end_load = os.getloadavg()
+    df = pd.DataFrame(rows)
+    prev = df["compressed_s"].shift(1)
+    df["compressed_growth"] = (df["compressed_s"] / prev).round(2)
+    df["points_growth"] = (df["points"] / df["points"].shift(1)).round(2)
+    cols = ["level", "dofs", "points", "edges", "dense_s", "compressed_s",
+            "near_field_s", "far_field_s", "trees_s", "compressed_growth", "points_growth",
+            "max_rel_diff", "dense_rss_mb", "compressed_rss_mb", "load"]
+    with open(path, "w") as fh:
+        fh.write("# Pointwise (−Δ)ˢu_h: dense and compressed path\n\n")
+        fh.write(
+            f"`python benchmarks/bench_pointwise.py --levels "
+            f"{' '.join(map(str, args.levels))}{' --crossover' if args.crossover else ''} "
+            f"--md {path}`: uniform disks, "
+            f"s = {args.s}, points of the order-{args.order} triangle rule, u_h the "
+            f"P1 interpolant of the Example 1 solution, tol = {args.tol:g}; "
+            f"{os.cpu_count()} cores, {time.strftime('%Y-%m-%d', time.gmtime(t_start))}."
+            "\n\nMachine load (1-minute load average; the machine is shared with "
+            "other jobs, so seconds are wall times inflated by them): "
+            f"{start_load[0]:.1f} / {start_load[1]:.1f} / {start_load[2]:.1f} "
+            f"(1, 5, 15 min) at the start, {end_load[0]:.1f} / {end_load[1]:.1f} / "
+            f"{end_load[2]:.1f} at the end; column `load` gives it before-after "
+            "each run (compressed, then dense).\n\n"
+            "dense_s: the dense path (every point against every edge); where it was "
+            "not run, the last measured dense time scaled by the ratio of "
+            "point–edge pairs. compressed_s: the compressed path, of which "
+            "near_field_s (point–edge pairs of near blocks by the dense rules), "
+            "far_field_s (H² "
+            "passes) and trees_s (cluster and block trees, sources); "
+            "compressed_growth and points_growth: ratios to the previous level. "
+            "max_rel_diff: max|compressed − dense| / max|dense|; where the dense "
+            "path was not run on all points, at that many random points (seed 0) "
+            "relative to max|compressed| over all points, with the dense path's "
+            "seconds for them. *_rss_mb: peak resident memory of the run's process."
+            "\n\n")
+        fh.write(df[cols].to_markdown(index=False, floatfmt=".4g"))
+        fh.write("\n")
+        if cross is not None:
+            fh.write(
+                "\n## Where \"auto\" switches\n\n"
+                "Both paths on the same points in one process, best of 3 "
+                "(`--crossover`): every point of the order-2 and order-4 rules on "
+                "disk_uniform(3…5), and 1,000 or 4,000 random points of the order-4 "
+                "rule on disk_uniform(6), for s = 0.5 (inverse square root) and "
+                "s = 0.3 (exp/log). `fractional_laplacian_at(..., method=\"auto\")` "
+                "takes the compressed path from `AUTO_PAIRS` point–edge pairs on.\n\n")
+            cdf = pd.DataFrame(cross)
+            ints = ["level", "rule_order", "points", "edges"]
+            cdf[ints] = cdf[ints].astype(str)      # else printed as floats
+            fh.write(cdf.to_markdown(index=False, floatfmt=".4g"))
+            fh.write("\n")
+
+
 def _case(level, method, args, out):
     if method == "sample":
         cmd = [sys.executable, __file__, "--sample", str(level), str(args.s),
@@ -202,64 +259,16 @@ def main(argv=None):
                            max_rel_diff=f"{np.abs(c[idx.astype(int)] - d).max() / np.abs(c).max():.3g}"
                                         f" ({args.samples} points, {sample['seconds']:.0f} s)")
             rows.append(row)
+            if args.md:
+                write_md(args.md, args, rows, None, start_load, t_start)
             print(f"level {lv}: {row['points']} points, {row['edges']} edges, "
                   f"dense {row['dense_s']} s, compressed {row['compressed_s']:.2f} s "
                   f"(near {row['near_field_s']:.2f}, far {row['far_field_s']:.2f}, "
                   f"trees {row['trees_s']:.2f}), diff {row['max_rel_diff']}, "
                   f"rss {row['compressed_rss_mb']:.0f} MB, load {row['load']}", flush=True)
         cross = _case(0, "crossover", args, "") if args.crossover else None
-    end_load = os.getloadavg()
     if args.md:
-        import pandas as pd
-        df = pd.DataFrame(rows)
-        prev = df["compressed_s"].shift(1)
-        df["compressed_growth"] = (df["compressed_s"] / prev).round(2)
-        df["points_growth"] = (df["points"] / df["points"].shift(1)).round(2)
-        cols = ["level", "dofs", "points", "edges", "dense_s", "compressed_s",
-                "near_field_s", "far_field_s", "trees_s", "compressed_growth", "points_growth",
-                "max_rel_diff", "dense_rss_mb", "compressed_rss_mb", "load"]
-        with open(args.md, "w") as fh:
-            fh.write("# Pointwise (−Δ)ˢu_h: dense and compressed path\n\n")
-            fh.write(
-                f"`python benchmarks/bench_pointwise.py --levels "
-                f"{' '.join(map(str, args.levels))} --md {args.md}`: uniform disks, "
-                f"s = {args.s}, points of the order-{args.order} triangle rule, u_h the "
-                f"P1 interpolant of the Example 1 solution, tol = {args.tol:g}; "
-                f"{os.cpu_count()} cores, {time.strftime('%Y-%m-%d', time.gmtime(t_start))}."
-                "\n\nMachine load (1-minute load average; the machine is shared with "
-                "other jobs, so seconds are wall times inflated by them): "
-                f"{start_load[0]:.1f} / {start_load[1]:.1f} / {start_load[2]:.1f} "
-                f"(1, 5, 15 min) at the start, {end_load[0]:.1f} / {end_load[1]:.1f} / "
-                f"{end_load[2]:.1f} at the end; column `load` gives it before-after "
-                "each run (compressed, then dense).\n\n"
-                "dense_s: the dense path (every point against every edge); where it was "
-                "not run, the last measured dense time scaled by the ratio of "
-                "point–edge pairs. compressed_s: the compressed path, of which "
-                "near_field_s (point–edge pairs of near blocks by the dense rules), "
-                "far_field_s (H² "
-                "passes) and trees_s (cluster and block trees, sources); "
-                "compressed_growth and points_growth: ratios to the previous level. "
-                "max_rel_diff: max|compressed − dense| / max|dense|; where the dense "
-                "path was not run on all points, at that many random points (seed 0) "
-                "relative to max|compressed| over all points, with the dense path's "
-                "seconds for them. *_rss_mb: peak resident memory of the run's process."
-                "\n\n")
-            fh.write(df[cols].to_markdown(index=False, floatfmt=".4g"))
-            fh.write("\n")
-            if cross is not None:
-                fh.write(
-                    "\n## Where \"auto\" switches\n\n"
-                    "Both paths on the same points in one process, best of 3 "
-                    "(`--crossover`): every point of the order-2 and order-4 rules on "
-                    "disk_uniform(3…5), and 1,000 or 4,000 random points of the order-4 "
-                    "rule on disk_uniform(6), for s = 0.5 (inverse square root) and "
-                    "s = 0.3 (exp/log). `fractional_laplacian_at(..., method=\"auto\")` "
-                    "takes the compressed path from `AUTO_PAIRS` point–edge pairs on.\n\n")
-                cdf = pd.DataFrame(cross)
-                ints = ["level", "rule_order", "points", "edges"]
-                cdf[ints] = cdf[ints].astype(str)      # else printed as floats
-                fh.write(cdf.to_markdown(index=False, floatfmt=".4g"))
-                fh.write("\n")
+        write_md(args.md, args, rows, cross, start_load, t_start)
 
 
 if __name__ == "__main__":
