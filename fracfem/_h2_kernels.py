@@ -122,10 +122,14 @@ def _grid(box, z, X):  # pragma: no cover
 
 
 @njit(cache=True, parallel=True)
-def coupling_matrices(tboxes, sboxes, far_rows, far_cols, z, expo, comp):  # pragma: no cover
+def coupling_matrices(tboxes, sboxes, far_rows, far_cols, z, expo, comp,
+                      logl0=0.0):  # pragma: no cover
     """K[b, α, β] = |r|^(2·expo), r = ζ^τ_β − ξ^σ_α, of every admissible block
     b = (σ, τ), σ a target cluster (tboxes), τ a source cluster (sboxes);
-    with comp = 0 or 1 the kernel is r_comp |r|^(2·expo) instead."""
+    with comp = 0 or 1 the kernel is r_comp |r|^(2·expo) instead, with
+    comp = 2 it is (|r|^(2·expo) − ℓ₀^(2·expo))/(−2·expo), ℓ₀ = exp(logl0),
+    computed without cancellation (bounded as expo → 0)."""
+    l0p = np.exp(2.0 * expo * logl0) / (-2.0 * expo)
     nb = far_rows.shape[0]
     m = z.shape[0]
     p = m * m
@@ -139,6 +143,10 @@ def coupling_matrices(tboxes, sboxes, far_rows, far_cols, z, expo, comp):  # pra
             for c in range(p):
                 dx = Y[c, 0] - X[a, 0]
                 dy = Y[c, 1] - X[a, 1]
+                if comp == 2:
+                    K[b, a, c] = l0p * np.expm1(expo * (np.log(dx * dx + dy * dy)
+                                                        - 2.0 * logl0))
+                    continue
                 v = (dx * dx + dy * dy) ** expo
                 if comp == 0:
                     v *= dx
@@ -277,9 +285,10 @@ def downward(G, E, level_nodes, level_ptr, child0, child1, m):  # pragma: no cov
 
 
 @njit(cache=True, parallel=True)
-def leaf_evaluate(G, cent, perm, leaves, cl_start, cl_end, boxes, z, out):  # pragma: no cover
+def leaf_evaluate(G, cent, perm, leaves, cl_start, cl_end, boxes, z, out,
+                  nder=6):  # pragma: no cover
     """out[T, r, :] = (g, ∂x g, ∂y g, ∂xx g, ∂xy g, ∂yy g)(c_T) of the local
-    expansion g = Σ_α G[leaf, r, α] L_α."""
+    expansion g = Σ_α G[leaf, r, α] L_α (the first ``nder`` of them)."""
     m = z.shape[0]
     p = m * m
     nrhs = G.shape[1]
@@ -292,7 +301,7 @@ def leaf_evaluate(G, cent, perm, leaves, cl_start, cl_end, boxes, z, out):  # pr
             T = perm[k]
             _basis_2d(cent[T, 0], cent[T, 1], boxes[c], z, bx, by, L)
             for r in range(nrhs):
-                for d in range(6):
+                for d in range(nder):
                     acc = 0.0
                     for a in range(p):
                         acc += G[c, r, a] * L[d, a]

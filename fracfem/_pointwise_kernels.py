@@ -117,6 +117,86 @@ def _double_near(x0, x1, ax, ay, bx, by, ua, ub, s, gx, gw, piece):  # pragma: n
     return np.sign(d) * ad ** (-2.0 * s) * acc * hv
 
 
+@njit(cache=True, inline="always")
+def _level(q, rat2):  # pragma: no cover
+    """Index of the Gauss level of distance ratio² q (levels start at rat2)."""
+    lev = 0
+    while lev < rat2.shape[0] and q >= rat2[lev]:
+        lev += 1
+    return lev
+
+
+@njit(cache=True, inline="always")
+def single_term(x0, x1, edata, e, s, logl0, l0s, near2, rat2, gl_x, gl_w, gl_off, nx, nw,
+                piece):  # pragma: no cover
+    """J_e |e| ∫_e G(|x − y|) dℓ(y) by the rule of edge e's distance class
+    (l0s = ℓ₀^(−2s), logl0 = log ℓ₀)."""
+    s2 = 2.0 * s
+    mx = edata[e, 4] - x0
+    my = edata[e, 5] - x1
+    r2 = mx * mx + my * my
+    q = r2 * edata[e, 6]
+    if q < near2:
+        return edata[e, 7] * edata[e, 6] ** 0.5 * _single_near(
+            x0, x1, edata[e, 0], edata[e, 1], edata[e, 2], edata[e, 3],
+            s, logl0, l0s / s2, nx, nw, piece)
+    lev = _level(q, rat2)
+    tx = edata[e, 2] - edata[e, 0]
+    ty = edata[e, 3] - edata[e, 1]
+    half = s == 0.5
+    if gl_off[lev + 1] == gl_off[lev]:
+        # midpoint rule with its second-order correction:
+        # ∫ f = |e| f(0) + |e|³/24 f''(0), f(t) = G(|m_e − x + t τ|),
+        # f'' = ρ^(−2s−2) ((2s+2)(z·τ)²/ρ² − 1)
+        if half:
+            rp = 1.0 / np.sqrt(r2)                 # ρ^(−2s)
+        else:
+            rp = np.exp(-s * np.log(r2))
+        pz = mx * tx + my * ty
+        f2 = rp / r2 * ((s2 + 2.0) * pz * pz * edata[e, 6] / r2 - 1.0)
+        return edata[e, 7] * ((rp - l0s) / s2 + f2 / (24.0 * edata[e, 6]))
+    part = 0.0
+    wsum = 0.0
+    for g in range(gl_off[lev], gl_off[lev + 1]):
+        yx = edata[e, 0] + gl_x[g] * tx - x0
+        yy = edata[e, 1] + gl_x[g] * ty - x1
+        if half:
+            part += gl_w[g] / np.sqrt(yx * yx + yy * yy)
+        else:
+            part += gl_w[g] * np.exp(-s * np.log(yx * yx + yy * yy))
+        wsum += gl_w[g]
+    return edata[e, 7] * (part - wsum * l0s) / s2
+
+
+@njit(cache=True, inline="always")
+def double_term(x0, x1, ba, bb, bu, e, s, near2, brat2, bgl_x, bgl_w, bgl_off, nx, nw,
+                piece):  # pragma: no cover
+    """d_e(x) ∫_e u(y)|x − y|^(−2−2s) dℓ(y) of boundary edge e by the rule of
+    its distance class."""
+    ax = ba[e, 0]
+    ay = ba[e, 1]
+    tx = bb[e, 0] - ax
+    ty = bb[e, 1] - ay
+    l2 = tx * tx + ty * ty
+    mx = ax + 0.5 * tx - x0
+    my = ay + 0.5 * ty - x1
+    q = (mx * mx + my * my) / l2
+    if q < near2:
+        return _double_near(x0, x1, ax, ay, bb[e, 0], bb[e, 1], bu[e, 0], bu[e, 1], s,
+                            nx, nw, piece)
+    lev = _level(q, brat2)
+    ln = np.sqrt(l2)
+    d = ((ax - x0) * ty - (ay - x1) * tx) / ln
+    ex = -1.0 - s
+    part = 0.0
+    for g in range(bgl_off[lev], bgl_off[lev + 1]):
+        yx = ax + bgl_x[g] * tx - x0
+        yy = ay + bgl_x[g] * ty - x1
+        uu = bu[e, 0] + bgl_x[g] * (bu[e, 1] - bu[e, 0])
+        part += bgl_w[g] * uu * (yx * yx + yy * yy) ** ex
+    return d * ln * part
+
+
 @njit(cache=True, parallel=True)
 def riesz_edges(x, edata, ba, bb, bu, s, logl0, near, ratios, gl_x, gl_w, gl_off,
                 bratios, bgl_x, bgl_w, bgl_off, nx, nw, piece, out):  # pragma: no cover
@@ -137,83 +217,86 @@ def riesz_edges(x, edata, ba, bb, bu, s, logl0, near, ratios, gl_x, gl_w, gl_off
     receives the sum, without the factor c_{2,s}/(2s).
     """
     n = x.shape[0]
-    m = edata.shape[0]
-    mb = ba.shape[0]
-    nlev = ratios.shape[0]
-    nblev = bratios.shape[0]
     near2 = near * near
     rat2 = ratios * ratios
     brat2 = bratios * bratios
-    ex = -1.0 - s
-    s2 = 2.0 * s
-    l0s = np.exp(-s2 * logl0)            # ℓ₀^(−2s)
-    l0p = l0s / s2
-    half = s == 0.5
+    l0s = np.exp(-2.0 * s * logl0)
     for i in prange(n):
-        x0 = x[i, 0]
-        x1 = x[i, 1]
         acc = 0.0
-        for e in range(m):
-            mx = edata[e, 4] - x0
-            my = edata[e, 5] - x1
-            r2 = mx * mx + my * my
-            q = r2 * edata[e, 6]
-            if q < near2:
-                acc += edata[e, 7] * edata[e, 6] ** 0.5 * _single_near(
-                    x0, x1, edata[e, 0], edata[e, 1], edata[e, 2], edata[e, 3],
-                    s, logl0, l0p, nx, nw, piece)
-                continue
-            lev = 0
-            while lev < nlev and q >= rat2[lev]:
-                lev += 1
-            tx = edata[e, 2] - edata[e, 0]
-            ty = edata[e, 3] - edata[e, 1]
-            if gl_off[lev + 1] == gl_off[lev]:
-                # midpoint rule with its second-order correction:
-                # ∫ f = |e| f(0) + |e|³/24 f''(0), f(t) = G(|m_e − x + t τ|),
-                # f'' = ρ^(−2s−2) ((2s+2)(z·τ)²/ρ² − 1)
-                if half:
-                    rp = 1.0 / np.sqrt(r2)                 # ρ^(−2s)
-                else:
-                    rp = np.exp(-s * np.log(r2))
-                pz = mx * tx + my * ty
-                f2 = rp / r2 * ((s2 + 2.0) * pz * pz * edata[e, 6] / r2 - 1.0)
-                acc += edata[e, 7] * ((rp - l0s) / s2 + f2 / (24.0 * edata[e, 6]))
-                continue
-            part = 0.0
-            wsum = 0.0
-            for g in range(gl_off[lev], gl_off[lev + 1]):
-                yx = edata[e, 0] + gl_x[g] * tx - x0
-                yy = edata[e, 1] + gl_x[g] * ty - x1
-                if half:
-                    part += gl_w[g] / np.sqrt(yx * yx + yy * yy)
-                else:
-                    part += gl_w[g] * np.exp(-s * np.log(yx * yx + yy * yy))
-                wsum += gl_w[g]
-            acc += edata[e, 7] * (part - wsum * l0s) / s2
-        for e in range(mb):
-            ax = ba[e, 0]
-            ay = ba[e, 1]
-            tx = bb[e, 0] - ax
-            ty = bb[e, 1] - ay
-            l2 = tx * tx + ty * ty
-            mx = ax + 0.5 * tx - x0
-            my = ay + 0.5 * ty - x1
-            q = (mx * mx + my * my) / l2
-            if q < near2:
-                acc += _double_near(x0, x1, ax, ay, bb[e, 0], bb[e, 1], bu[e, 0],
-                                    bu[e, 1], s, nx, nw, piece)
-                continue
-            lev = 0
-            while lev < nblev and q >= brat2[lev]:
-                lev += 1
-            ln = np.sqrt(l2)
-            d = ((ax - x0) * ty - (ay - x1) * tx) / ln
-            part = 0.0
-            for g in range(bgl_off[lev], bgl_off[lev + 1]):
-                yx = ax + bgl_x[g] * tx - x0
-                yy = ay + bgl_x[g] * ty - x1
-                uu = bu[e, 0] + bgl_x[g] * (bu[e, 1] - bu[e, 0])
-                part += bgl_w[g] * uu * (yx * yx + yy * yy) ** ex
-            acc += d * ln * part
+        for e in range(edata.shape[0]):
+            acc += single_term(x[i, 0], x[i, 1], edata, e, s, logl0, l0s, near2, rat2, gl_x,
+                               gl_w, gl_off, nx, nw, piece)
+        for e in range(ba.shape[0]):
+            acc += double_term(x[i, 0], x[i, 1], ba, bb, bu, e, s, near2, brat2, bgl_x,
+                               bgl_w, bgl_off, nx, nw, piece)
         out[i] = acc
+
+
+@njit(cache=True, parallel=True)
+def riesz_near(x, tperm, tstart, tend, rows, ptr, cols, sstart, send, src_g, nsrc, layer,
+               edata, ba, bb, bu, s, logl0, near, ratios, gl_x, gl_w, gl_off, bratios,
+               bgl_x, bgl_w, bgl_off, nx, nw, piece, out):  # pragma: no cover
+    """out[i] += the near-block share of one layer at x_i (layer 0: single
+    layer over ``edata``, 1: double layer over ``ba, bb, bu``; arguments as in
+    :func:`riesz_edges`).
+
+    The sources of the far field are the points of each edge's rule of the
+    farthest distance class, ``nsrc`` per edge (one midpoint where that rule
+    is the corrected midpoint rule).  Here the edge arrays hold one row per
+    source in the order of the source tree (source k: point src_g[k] of the
+    edge in row k; the sources of cluster τ are rows sstart[τ]:send[τ]).  A
+    pair (x, source) of a near block adds the source's own term where the
+    edge is in the farthest class for x (as it would in a far block) and
+    1/nsrc of the edge's whole term, by the rule of its class, otherwise:
+    the sum over all blocks is then the sum of :func:`riesz_edges`.  Target
+    clusters (rows) in parallel: every point lies in one leaf, so no two
+    threads write the same entry.
+    """
+    near2 = near * near
+    rat2 = ratios * ratios
+    brat2 = bratios * bratios
+    far2 = max(rat2[rat2.shape[0] - 1], near2)      # the farthest class starts here
+    bfar2 = max(brat2[brat2.shape[0] - 1], near2)
+    goff = gl_off[rat2.shape[0]]
+    bgoff = bgl_off[brat2.shape[0]]
+    s2 = 2.0 * s
+    l0s = np.exp(-s2 * logl0)
+    ex = -1.0 - s
+    for ri in prange(rows.shape[0]):
+        tl = rows[ri]
+        for k in range(tstart[tl], tend[tl]):
+            i = tperm[k]
+            x0 = x[i, 0]
+            x1 = x[i, 1]
+            acc = 0.0
+            for bi in range(ptr[ri], ptr[ri + 1]):
+                for e in range(sstart[cols[bi]], send[cols[bi]]):
+                    if layer == 0:
+                        if nsrc > 1:
+                            mx = edata[e, 4] - x0
+                            my = edata[e, 5] - x1
+                            if (mx * mx + my * my) * edata[e, 6] >= far2:
+                                g = goff + src_g[e]
+                                yx = edata[e, 0] + gl_x[g] * (edata[e, 2] - edata[e, 0]) - x0
+                                yy = edata[e, 1] + gl_x[g] * (edata[e, 3] - edata[e, 1]) - x1
+                                acc += edata[e, 7] * gl_w[g] * (
+                                    np.exp(-s * np.log(yx * yx + yy * yy)) - l0s) / s2
+                                continue
+                        acc += single_term(x0, x1, edata, e, s, logl0, l0s, near2, rat2,
+                                           gl_x, gl_w, gl_off, nx, nw, piece) / nsrc
+                    else:
+                        tx = bb[e, 0] - ba[e, 0]
+                        ty = bb[e, 1] - ba[e, 1]
+                        mx = ba[e, 0] + 0.5 * tx - x0
+                        my = ba[e, 1] + 0.5 * ty - x1
+                        if mx * mx + my * my >= bfar2 * (tx * tx + ty * ty):
+                            g = bgoff + src_g[e]
+                            yx = ba[e, 0] + bgl_x[g] * tx - x0
+                            yy = ba[e, 1] + bgl_x[g] * ty - x1
+                            uu = bu[e, 0] + bgl_x[g] * (bu[e, 1] - bu[e, 0])
+                            acc += bgl_w[g] * uu * (yx * ty - yy * tx) * (
+                                yx * yx + yy * yy) ** ex
+                            continue
+                        acc += double_term(x0, x1, ba, bb, bu, e, s, near2, brat2, bgl_x,
+                                           bgl_w, bgl_off, nx, nw, piece) / nsrc
+            out[i] += acc

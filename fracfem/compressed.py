@@ -254,20 +254,41 @@ class CompressedKappa:
         tt = cluster_tree(x, np.zeros(len(x)), self.leaf_size, root)
         ts = cluster_tree(self.points, self.ln, self.leaf_size, root)
         far, near = block_tree(tt, ts, self.eta, KAPPA_RATIO)
-        out = np.zeros(len(x))
-        if len(far):
-            z = chebyshev_points(self.order)
-            f = _far_blocks(tt, ts, far, _tree_data(tt, x, z), _tree_data(ts, self.points, z),
-                            z, -1.0 - self.s, comps=(0, 1))
-            for d in range(2):
-                out += _far_pass(f, self.src[d], f["K"][d])[:, 0, 0] / (2.0 * self.s)
-        nr = near[np.lexsort((near[:, 1], near[:, 0]))]
-        rows, ptr = np.unique(nr[:, 0], return_index=True)
-        hk.kappa_near(x, tt["perm"], tt["start"], np.append(ptr, len(nr)).astype(np.int64),
-                      rows.astype(np.int64), nr[:, 1].copy(), tt["end"], ts["perm"],
+        out = far_values(tt, ts, far, x, self.points, self.order, -1.0 - self.s, self.src,
+                         comps=(0, 1)) / (2.0 * self.s)
+        rows, ptr, cols = near_lists(near)
+        hk.kappa_near(x, tt["perm"], tt["start"], ptr, rows, cols, tt["end"], ts["perm"],
                       ts["start"], ts["end"], self.src_edge, self.src_g, self.edges, self.s,
                       *self.rules, out)
         return out
+
+
+def near_lists(near: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Near blocks (n, 2) by row cluster: rows (r,), ptr (r + 1,) and cols, the
+    blocks of rows[i] being (rows[i], cols[ptr[i]:ptr[i+1]])."""
+    nr = near[np.lexsort((near[:, 1], near[:, 0]))]
+    rows, ptr = np.unique(nr[:, 0], return_index=True)
+    return (rows.astype(np.int64), np.append(ptr, len(nr)).astype(np.int64),
+            np.ascontiguousarray(nr[:, 1], dtype=np.int64))
+
+
+def far_values(tt: dict, ts: dict, far: np.ndarray, x: np.ndarray, points: np.ndarray,
+               order: int, expo: float, src: np.ndarray, comps=(-1,),
+               logl0: float = 0.0) -> np.ndarray:
+    """Σ over the admissible blocks (targets x of tt, sources ``points`` of ts)
+    of Σ_j src[c, j] k_c(y_j − x_i), one kernel k_c per entry c of ``comps``
+    (see :func:`fracfem._h2_kernels.coupling_matrices`) and src (len(comps),
+    n_sources, 1, 6) source functionals; returns (n_targets,) values."""
+    out = np.zeros(len(x))
+    if not len(far):
+        return out
+    z = chebyshev_points(order)
+    f = _far_blocks(tt, ts, far, _tree_data(tt, x, z), _tree_data(ts, points, z), z, expo,
+                    comps=comps, logl0=logl0)
+    K = f["K"] if len(comps) > 1 else [f["K"]]
+    for c in range(len(comps)):
+        out += _far_pass(f, src[c], K[c], nder=1)[:, 0, 0]
+    return out
 
 
 # ---------------------------------------------------------------- operator
@@ -344,16 +365,34 @@ def _tree_data(tree: dict, points: np.ndarray, z: np.ndarray) -> dict:
                 level_ptr=tree["level_ptr"], E=hk.transfers(tree["boxes"], tree["parent"], z))
 
 
+def _unique_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First index and inverse of np.unique(keys, axis=0) for integer rows,
+    through one mixed-radix int64 per row when the column ranges allow (the
+    same lexicographic order, an order of magnitude faster)."""
+    if not len(keys):
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    lo = keys.min(axis=0)
+    span = keys.max(axis=0) - lo + 1
+    if math.prod(int(r) for r in span) >= 2 ** 62:
+        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        return first, inverse.reshape(-1)
+    packed = np.zeros(len(keys), dtype=np.int64)
+    for c in range(keys.shape[1]):
+        packed = packed * span[c] + (keys[:, c] - lo[c])
+    _, first, inverse = np.unique(packed, return_index=True, return_inverse=True)
+    return first, inverse
+
+
 def _far_blocks(tt: dict, ts: dict, far: np.ndarray, tdata: dict, sdata: dict,
-                z: np.ndarray, expo: float, comps=(-1,)) -> dict:
+                z: np.ndarray, expo: float, comps=(-1,), logl0: float = 0.0) -> dict:
     """Admissible blocks grouped by target cluster, with one coupling matrix per
-    block geometry for each kernel: |r|^(2·expo) (comp −1) or r_comp |r|^(2·expo)
-    (K is then a list, one array per comp)."""
+    block geometry for each kernel: |r|^(2·expo) (comp −1), r_comp |r|^(2·expo)
+    (comp 0, 1) or (|r|^(2·expo) − ℓ₀^(2·expo))/(−2·expo) (comp 2, ℓ₀ = e^logl0);
+    with several comps K is a list, one array per comp."""
     fr = far
-    _, first, inverse = np.unique(block_keys(tt["dyadic"], ts["dyadic"], fr), axis=0,
-                                  return_index=True, return_inverse=True)
+    first, inverse = _unique_rows(block_keys(tt["dyadic"], ts["dyadic"], fr))
     K = [hk.coupling_matrices(tdata["boxes"], sdata["boxes"], fr[first, 0].copy(),
-                              fr[first, 1].copy(), z, expo, comp) for comp in comps]
+                              fr[first, 1].copy(), z, expo, comp, logl0) for comp in comps]
     # blocks grouped by coupling matrix
     inverse = inverse.reshape(-1)
     order = np.argsort(inverse, kind="stable")
@@ -362,10 +401,12 @@ def _far_blocks(tt: dict, ts: dict, far: np.ndarray, tdata: dict, sdata: dict,
                 grp_ptr=grp_ptr, grp_rows=fr[order, 0].copy(), grp_cols=fr[order, 1].copy())
 
 
-def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None) -> np.ndarray:
+def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None,
+              nder: int = 6) -> np.ndarray:
     """Σ over admissible blocks of the kernel applied to source functionals
     (src (n_sources, nrhs, 6)); returns value, gradient and Hessian of the
-    result at every target point (n_targets, nrhs, 6)."""
+    result at every target point (n_targets, nrhs, 6; only the first ``nder``
+    of them computed, the others zero)."""
     S, T, z = f["src"], f["tgt"], f["z"]
     m = z.shape[0]
     nrhs = src.shape[1]
@@ -379,7 +420,7 @@ def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None) -> np.ndarr
     hk.downward(G, T["E"], T["level_nodes"], T["level_ptr"], T["child0"], T["child1"], m)
     out = np.zeros((len(T["cent"]), nrhs, 6))
     hk.leaf_evaluate(G, T["cent"], T["perm"], T["leaves"], T["start"], T["end"],
-                     T["boxes"], z, out)
+                     T["boxes"], z, out, nder)
     return out
 
 
@@ -453,11 +494,9 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     qx, qw, lam, offs = _far_rules(p, t, quad.far_orders, area2)
     import numba
     nchunks = numba.get_num_threads()
-    nr = near[np.lexsort((near[:, 1], near[:, 0]))]
-    rows, ptr = np.unique(nr[:, 0], return_index=True)
-    data, D = hk.near_pairs(t, tree["perm"], tree["start"], tree["end"],
-                            np.append(ptr, len(nr)).astype(np.int64), rows.astype(np.int64),
-                            nr[:, 1].copy(), cent, diam, area, mom, grad, qx, qw, lam, offs,
+    rows, ptr, cols = near_lists(near)
+    data, D = hk.near_pairs(t, tree["perm"], tree["start"], tree["end"], ptr, rows, cols,
+                            cent, diam, area, mom, grad, qx, qw, lam, offs,
                             np.asarray(quad.far_thresholds, dtype=np.float64), True, s,
                             indptr, indices, nv, nchunks)
     del qx, qw

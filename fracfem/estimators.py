@@ -81,9 +81,10 @@ import time
 import numpy as np
 
 from .assembly import mesh_arrays
+from .compressed import DEFAULT_TOL
 from .exact import check_s
 from .meshes import validates
-from .pointwise import PointwiseOptions, fractional_laplacian_qp
+from .pointwise import PointwiseOptions, check_method, fractional_laplacian_qp
 from .quadrature import triangle_rule
 
 __all__ = [
@@ -212,7 +213,7 @@ def _check_p(p):
 @validates("fine")
 def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
                         p: float = 2.0, options: PointwiseOptions | None = None,
-                        rh_extra=None):
+                        rh_extra=None, method: str = "auto", tol: float = DEFAULT_TOL):
     """Node terms η_i² of Lemma 5.22 and their element shares.
 
     Returns a dict with
@@ -227,6 +228,8 @@ def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
     ``rh_extra`` (optional, (Nt, nq) at the points of ``triangle_rule(order)`` in
     the order of :func:`fracfem.pointwise.quadrature_points`) is added to r_h, e.g.
     −(u^k − u^{k−1})/τ for the parabolic residual f − ∂_tU − (−Δ)ˢu (Theorem 6.18).
+    ``options``, ``method`` ("dense", "compressed" or "auto") and ``tol`` choose
+    how (−Δ)ˢu_h is evaluated (:func:`fracfem.pointwise.fractional_laplacian_at`).
     """
     s = check_s(s)
     order = _check_order(order)
@@ -234,10 +237,12 @@ def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
     P, T = mesh_arrays(fine)
     nv, nt = len(P), len(T)
     u = _check_u(fine, u)
+    check_method(method, tol)
     X, _ = triangle_rule(order)
     bary = np.column_stack([1.0 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])  # (nq, 3)
     t0 = time.perf_counter()
-    lap, pts, wts = fractional_laplacian_qp(fine, u, s, order, options=options)
+    lap, pts, wts = fractional_laplacian_qp(fine, u, s, order, options=options,
+                                            method=method, tol=tol)
     x = np.moveaxis(pts, -1, 0)                                        # (2, Nt, nq)
     fx = np.broadcast_to(np.asarray(f(x) if callable(f) else f, dtype=float), lap.shape)
     if not np.all(np.isfinite(fx)):
@@ -280,7 +285,8 @@ def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
 def residual_indicators(fine, u, s, f, lam_fine=None, contact_nodes=None, order: int = 4,
                         *, p: float = 2.0, localisation: str = "patch",
                         boundary: bool = False, options: PointwiseOptions | None = None,
-                        full_output: bool = False, rh_extra=None):
+                        full_output: bool = False, rh_extra=None, method: str = "auto",
+                        tol: float = DEFAULT_TOL):
     """The residual part of η(Δ)² (Section 7) on every fine element Δ.
 
     η(Δ)² = Σ_{i vertex of Δ, i interior, i ∉ C_h}
@@ -307,6 +313,10 @@ def residual_indicators(fine, u, s, f, lam_fine=None, contact_nodes=None, order:
         admitted nodes (key ``nodes``)
     rh_extra : optional (Nt, nq) values added to r_h at the quadrature points
         (:func:`node_residual_terms`)
+    options, method, tol : how (−Δ)ˢu_h is evaluated: quadrature of the edge
+        integrals, "dense", "compressed" or "auto" (compressed on large meshes)
+        and the compressed path's relative accuracy
+        (:func:`fracfem.pointwise.fractional_laplacian_at`)
 
     Returns
     -------
@@ -315,7 +325,7 @@ def residual_indicators(fine, u, s, f, lam_fine=None, contact_nodes=None, order:
     if localisation not in LOCALISATIONS:
         raise ValueError(f"localisation={localisation!r} must be one of {LOCALISATIONS}")
     res = node_residual_terms(fine, u, s, f, lam_fine, order=order, p=p, options=options,
-                              rh_extra=rh_extra)
+                              rh_extra=rh_extra, method=method, tol=tol)
     nv = fine.p.shape[1]
     admitted = np.zeros(nv, dtype=bool)
     admitted[np.asarray(fine.interior_nodes(), dtype=np.int64)] = True
@@ -431,7 +441,8 @@ def _problem_f(obj, f):
 @validates("prob.fine", "prob.coarse")
 def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
              p: float = 2.0, localisation: str = "patch", boundary: bool = False,
-             options: PointwiseOptions | None = None, rh_extra=None) -> dict:
+             options: PointwiseOptions | None = None, rh_extra=None,
+             method: str = "auto", tol: float = DEFAULT_TOL) -> dict:
     """Indicators of Algorithm B for a :class:`fracfem.vi.MixedProblem`.
 
     η(Δ)² = (residual term of :func:`residual_indicators`)
@@ -448,7 +459,8 @@ def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
         patch lies in coarse elements with λ_H < 0 (nodes *inside* the contact
         region; nodes on the free boundary keep their term, where λ_H jumps and the
         error concentrates); for friction C_h = ∅
-    p, localisation, boundary, options, rh_extra : see :func:`residual_indicators`
+    p, localisation, boundary, options, rh_extra, method, tol : see
+        :func:`residual_indicators`
 
     Returns
     -------
@@ -483,7 +495,8 @@ def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
     res_eta2, det = residual_indicators(fine, u, prob.disc.s, f, lam_fine, contact_nodes,
                                         order, p=p, localisation=localisation,
                                         boundary=boundary, options=options,
-                                        full_output=True, rh_extra=rh_extra)
+                                        full_output=True, rh_extra=rh_extra,
+                                        method=method, tol=tol)
     t1 = time.perf_counter()
     ct = contact_terms(prob, u, lam)
     # round-off can leave Lemma 5.21 terms at −1e−17; they are ≥ 0 in exact arithmetic
@@ -507,19 +520,22 @@ def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
 @validates("disc.mesh")
 def estimate_laplace(disc, u, f, order: int = 4, *, p: float = 2.0,
                      localisation: str = "patch", boundary: bool = False,
-                     options: PointwiseOptions | None = None) -> dict:
+                     options: PointwiseOptions | None = None, method: str = "auto",
+                     tol: float = DEFAULT_TOL) -> dict:
     """Indicators for the unconstrained problem (Example 1): λ_H = 0, C_h = ∅.
 
     ``disc`` is a :class:`fracfem.laplace.Discretisation`; ``u`` over all nodes or
-    the free nodes.  Returns a dict like :func:`estimate` with ``eta2_fine`` (one
-    value per element of ``disc.mesh``) and no coarse level.
+    the free nodes; the keywords as in :func:`estimate`.  Returns a dict like
+    :func:`estimate` with ``eta2_fine`` (one value per element of ``disc.mesh``)
+    and no coarse level.
     """
     t0 = time.perf_counter()
     mesh = disc.mesh
     u = _check_u(mesh, u, disc.free)
     eta2, det = residual_indicators(mesh, u, disc.s, f, None, None, order, p=p,
                                     localisation=localisation, boundary=boundary,
-                                    options=options, full_output=True)
+                                    options=options, full_output=True, method=method,
+                                    tol=tol)
     total = float(det["term"].sum())
     t1 = time.perf_counter()
     parts = dict(residual_fine=eta2, residual_nodes=det["term"], residual=total,

@@ -48,6 +48,18 @@ max|(−Δ)^s u_h|, the tests compare against the raised options and against
 the reference).  Cost: O(N_points × N_edges), about 20 ns (s = 1/2) to
 40 ns (other s) per point–edge pair and thread.
 
+Compressed path
+---------------
+``method="compressed"`` (and ``"auto"`` on large meshes) computes the same
+sums in about linear time: point–edge pairs closer than the farthest
+distance class (6 edge lengths by default) and a margin from the cluster
+boxes keep the rules above, the others — where the dense path takes the
+corrected midpoint rule (single layer) or 4 Gauss points (double layer) —
+are summed through cluster trees of points and of those rules' points with
+tensor Chebyshev interpolation of the kernels (the H² machinery of
+:mod:`fracfem.compressed`), so that the two paths differ by the
+interpolation error, which follows ``tol`` (:func:`_riesz_compressed`).
+
 Reference
 ---------
 The tests compare against an independent, slow implementation of the
@@ -73,12 +85,17 @@ L^p or L² evaluation needs rules graded toward the edges, which
 """
 from __future__ import annotations
 
+import logging
+import numbers
+import time
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from . import _pointwise_kernels as _pk
 from .assembly import mesh_arrays
+from .compressed import (DEFAULT_TOL, block_tree, chebyshev_order, cluster_tree, far_values,
+                         near_lists, square_around)
 from .exact import c2s, check_s
 from .quadrature import gauss01, triangle_rule
 
@@ -87,9 +104,28 @@ __all__ = [
     "fractional_laplacian_at",
     "fractional_laplacian_qp",
     "normal_derivative_jumps",
+    "METHODS",
 ]
 
+log = logging.getLogger(__name__)
+
 _INSIDE = 1e-12   # points must have all barycentric coordinates above this
+
+METHODS = ("dense", "compressed", "auto")
+# "auto": the compressed path from this many point–edge pairs on, about 1,000
+# nodes with the order-4 rule (benchmarks/pointwise.md, loaded 2-core machine:
+# the compressed path is 0.55-1.0× as fast as the dense one at 5e6-1e7 pairs
+# (disk_uniform(4)), 0.75× for 1,000 points on disk_uniform(6) (2.5e7 pairs,
+# building the source tree dominates), 1.4-2.8× from 7.6e7 pairs on)
+AUTO_PAIRS = 4e7
+# cluster trees of the compressed path: points per target leaf, sources per
+# source leaf; admissibility max(diam) ≤ ETA·dist and interpolation order
+# chebyshev_order(tol) + 1 (measured on disk_uniform(6), random P1 u_h, s = 0.1:
+# eta 1 and order 7 at tol = 1e-8 leave 1.2e-6 of max|values|, eta 0.5 and
+# order 8 1e-8 at about the same cost: the near field dominates)
+TARGET_LEAF = 32
+SOURCE_LEAF = 16
+ETA = 0.5
 
 
 @dataclass(frozen=True)
@@ -232,8 +268,20 @@ def _check_points(p, t, points, elements):
     return np.ascontiguousarray(x), el
 
 
+def check_method(method, tol):
+    """``method`` and ``tol`` of the evaluation, checked."""
+    if not isinstance(method, str) or method not in METHODS:
+        raise ValueError(f"method={method!r} must be one of {METHODS}")
+    if (isinstance(tol, bool) or not isinstance(tol, numbers.Real)
+            or not (1e-14 <= float(tol) < 1.0)):
+        raise ValueError(f"tol={tol!r} must be a number in [1e-14, 1) (relative "
+                         f"accuracy of the compressed far field)")
+    return method, float(tol)
+
+
 def fractional_laplacian_at(mesh, u, points, elements, s, *,
-                            options: PointwiseOptions | None = None) -> np.ndarray:
+                            options: PointwiseOptions | None = None,
+                            method: str = "auto", tol: float = DEFAULT_TOL) -> np.ndarray:
     """(−Δ)^s u_h at points strictly inside mesh elements.
 
     Parameters
@@ -250,17 +298,24 @@ def fractional_laplacian_at(mesh, u, points, elements, s, *,
         for s ≥ 1/2 the values are infinite on edges where ∇u_h jumps
     s : order in (0, 1)
     options : quadrature of the edge integrals, default :class:`PointwiseOptions`
+    method : "dense" (every point against every edge, O(N·N_E)), "compressed"
+        (near edges by the same rules, far edges through cluster trees and
+        Chebyshev interpolation, about linear in N + N_E; see
+        :func:`_riesz_compressed`) or "auto" (compressed from
+        ``AUTO_PAIRS`` point–edge pairs on, where it is the faster)
+    tol : relative accuracy of the compressed far field, in [1e-14, 1)
 
     Returns
     -------
     (N,) values of (−Δ)^s u_h, including the constant c_{2,s}.
     """
     s = check_s(s)
+    method, tol = check_method(method, tol)
     opt = options or PointwiseOptions()
     p, t = mesh_arrays(mesh)
     u = _check_u(u, len(p))
     x, _ = _check_points(p, t, points, elements)
-    out = np.empty(len(x))
+    out = np.zeros(len(x))
     if len(x) == 0:
         return out
     edges, J, boundary, bnodes = _jumps(p, t, u)
@@ -275,17 +330,129 @@ def fractional_laplacian_at(mesh, u, points, elements, s, *,
     bb = np.ascontiguousarray(p[bnodes[bkeep, 1]])
     bu = np.ascontiguousarray(bu[bkeep])
     ell0 = float(np.linalg.norm(np.ptp(p, axis=0)))
-    ratios, gx, gw, goff = _rules(opt.ratios, opt.points)
-    bratios, bgx, bgw, bgoff = _rules(opt.boundary_ratios, opt.boundary_points)
-    nx, nw = gauss01(int(opt.near_points))
-    _pk.riesz_edges(x, edata, ba, bb, bu, s, np.log(ell0), float(opt.near),
-                    ratios, gx, gw, goff, bratios, bgx, bgw, bgoff, nx, nw,
-                    float(opt.piece), out)
+    if method == "auto":
+        pairs = float(len(x)) * (len(edata) + len(ba))
+        method = "compressed" if pairs >= AUTO_PAIRS else "dense"
+    if method == "dense":
+        _pk.riesz_edges(x, *_kernel_args(edata, ba, bb, bu, s, ell0, opt), out)
+    else:
+        _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out)
     out *= c2s(s) / (2.0 * s)
     if not np.all(np.isfinite(out)):
         raise FloatingPointError("non-finite values of (−Δ)^s u_h; are the points "
                                  "too close to an edge?")
     return out
+
+
+def _kernel_args(edata, ba, bb, bu, s, ell0, opt):
+    """The arguments after x of :func:`fracfem._pointwise_kernels.riesz_edges`."""
+    ratios, gx, gw, goff = _rules(opt.ratios, opt.points)
+    bratios, bgx, bgw, bgoff = _rules(opt.boundary_ratios, opt.boundary_points)
+    nx, nw = gauss01(int(opt.near_points))
+    return (edata, ba, bb, bu, s, np.log(ell0), float(opt.near), ratios, gx, gw, goff,
+            bratios, bgx, bgw, bgoff, nx, nw, float(opt.piece))
+
+
+def _sources(a, b, n):
+    """Far-field sources of the edges [a, b]: the n Gauss points of each
+    edge (the midpoint if n = 0), as (points, edge index, point index,
+    weight on [0, 1])."""
+    x, w = gauss01(n) if n > 0 else (np.array([0.5]), np.array([1.0]))
+    k, ne = len(x), len(a)
+    pts = (a[None] + x[:, None, None] * (b - a)[None]).reshape(-1, 2)
+    return (np.ascontiguousarray(pts), np.tile(np.arange(ne, dtype=np.int64), k),
+            np.repeat(np.arange(k, dtype=np.int64), ne), np.repeat(w, ne))
+
+
+def _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out):
+    """The sum of :func:`fracfem._pointwise_kernels.riesz_edges` with the far
+    field compressed.
+
+    Targets are the points x, in one cluster tree (:func:`fracfem.compressed.
+    cluster_tree`, dyadic boxes of a square around points and mesh).  Each
+    layer has a tree of sources, the points of the rule that the dense path
+    uses for the edges in the farthest distance class: for the single layer
+    (default) the edge midpoints, each with the functional
+    J_e|e| (δ + |e|²/24 ∂²_τ) of the corrected midpoint rule; for the double
+    layer the Gauss points y_g of the boundary edges with the weights
+    w_g u(y_g) (b − a)^⊥, one H² pass per component of the kernel
+    (y − x)|y − x|^(−2−2s).  A block is admissible when its boxes are
+    separated (:func:`fracfem.compressed.block_tree`) and every pair in it is
+    in the farthest class (distance ratio from the sources' boxes); there
+    the kernel — G itself for the single layer, with its constant, so that
+    the sum stays well conditioned as s → 0 — is interpolated on tensor
+    Chebyshev grids of order ``chebyshev_order(tol) + 1`` with admissibility
+    ``ETA``.  Near blocks are summed pair by pair with the rules of the dense
+    path (:func:`fracfem._pointwise_kernels.riesz_near`), so the two paths
+    differ by the interpolation error only.
+    """
+    t0 = time.perf_counter()
+    m = min(chebyshev_order(tol) + 1, 14)
+    # a single class beyond `near` is two with the same rule, both from `near`
+    # on: the kernels then always find the start of the farthest class
+    if not opt.ratios:
+        opt = replace(opt, ratios=(opt.near,), points=2 * tuple(opt.points))
+    if not opt.boundary_ratios:
+        opt = replace(opt, boundary_ratios=(opt.near,),
+                      boundary_points=2 * tuple(opt.boundary_points))
+    args = _kernel_args(edata, ba, bb, bu, s, ell0, opt)
+    logl0 = args[5]
+    root = square_around(x, edata[:, :2], edata[:, 2:4], ba, bb)
+    tt = cluster_tree(x, np.zeros(len(x)), TARGET_LEAF, root)
+    layers = []
+    if len(edata):
+        a, b = edata[:, :2], edata[:, 2:4]
+        n = int(opt.points[-1])
+        pts, sedge, sg, w = _sources(a, b, n)
+        src = np.zeros((1, len(pts), 1, 6))
+        src[0, :, 0, 0] = edata[sedge, 7] * w
+        if n == 0:      # |e|²/24 τ τᵀ: the second-order term of the midpoint rule
+            tv = b - a
+            src[0, :, 0, 3:6] = (edata[:, 7] / 24.0)[:, None] * np.column_stack(
+                [tv[:, 0] ** 2, tv[:, 0] * tv[:, 1], tv[:, 1] ** 2])
+        # the farthest class starts at this distance ratio from the midpoint
+        ratio = max(opt.ratios[-1], opt.near) + (0.5 if n else 0.0)
+        layers.append((0, pts, sedge, sg, max(n, 1), np.sqrt(1.0 / edata[sedge, 6]), ratio,
+                       src, (2,), -s))
+    if len(ba):
+        n = int(opt.boundary_points[-1])
+        pts, sedge, sg, w = _sources(ba, bb, n)
+        tv = (bb - ba)[sedge]
+        xg = gauss01(n)[0][sg]
+        wu = w * (bu[sedge, 0] + xg * (bu[sedge, 1] - bu[sedge, 0]))
+        src = np.zeros((2, len(pts), 1, 6))
+        src[0, :, 0, 0] = wu * tv[:, 1]
+        src[1, :, 0, 0] = -wu * tv[:, 0]
+        ratio = max(opt.boundary_ratios[-1], opt.near) + 0.5
+        layers.append((1, pts, sedge, sg, n, np.linalg.norm(tv, axis=1), ratio, src,
+                       (0, 1), -1.0 - s))
+    tim = dict(trees=time.perf_counter() - t0, far=0.0, near=0.0)
+    for layer, pts, sedge, sg, nsrc, ln, ratio, src, comps, expo in layers:
+        t1 = time.perf_counter()
+        ts = cluster_tree(pts, ln, SOURCE_LEAF, root)
+        far, near = block_tree(tt, ts, ETA, ratio)
+        t2 = time.perf_counter()
+        out += far_values(tt, ts, far, x, pts, m, expo, src, comps, logl0)
+        t3 = time.perf_counter()
+        rows, ptr, cols = near_lists(near)
+        # one row of edge data per source, in source-tree order
+        rowof = sedge[ts["perm"]]
+        edge_args = list(args[:4])
+        if layer == 0:
+            edge_args[0] = np.ascontiguousarray(edata[rowof])
+        else:
+            edge_args[1:4] = [np.ascontiguousarray(v[rowof]) for v in (ba, bb, bu)]
+        _pk.riesz_near(x, tt["perm"], tt["start"], tt["end"], rows, ptr, cols, ts["start"],
+                       ts["end"], np.ascontiguousarray(sg[ts["perm"]]), nsrc, layer,
+                       *edge_args, *args[4:], out)
+        tim["trees"] += t2 - t1
+        tim["far"] += t3 - t2
+        tim["near"] += time.perf_counter() - t3
+        log.info("pointwise %s layer: %d points, %d sources, %d far / %d near blocks",
+                 ("single", "double")[layer], len(x), len(pts), len(far), len(near))
+    log.info("pointwise compressed, order %d: trees %.2f s, far field %.2f s, "
+             "near field %.2f s", m, tim["trees"], tim["far"], tim["near"])
+    return tim
 
 
 def quadrature_points(mesh, order: int):
@@ -301,16 +468,20 @@ def quadrature_points(mesh, order: int):
 
 
 def fractional_laplacian_qp(mesh, u, s, order: int, *,
-                            options: PointwiseOptions | None = None):
+                            options: PointwiseOptions | None = None,
+                            method: str = "auto", tol: float = DEFAULT_TOL):
     """(−Δ)^s u_h at the points of ``triangle_rule(order)`` of every element.
 
     Returns (values (Nt, nq), points (Nt, nq, 2), weights (Nt, nq)); the
     weights are physical (Σ_q weights[T, q] = |T|), so that
-    Σ weights·values·φ approximates ∫_Ω (−Δ)^s u_h φ.
+    Σ weights·values·φ approximates ∫_Ω (−Δ)^s u_h φ.  ``options``,
+    ``method`` and ``tol`` as in :func:`fractional_laplacian_at`.
     """
     s = check_s(s)
+    check_method(method, tol)
     pts, wts, _ = quadrature_points(mesh, order)
     nt, nq = wts.shape
     el = np.repeat(np.arange(nt), nq)
-    vals = fractional_laplacian_at(mesh, u, pts.reshape(-1, 2), el, s, options=options)
+    vals = fractional_laplacian_at(mesh, u, pts.reshape(-1, 2), el, s, options=options,
+                                   method=method, tol=tol)
     return vals.reshape(nt, nq), pts, wts

@@ -441,7 +441,8 @@ def algorithm_c(make_problem, coarse0, u0, *, T: float, theta: float, iterations
     f, f_time : the load (:mod:`fracfem.parabolic`); order : triangle rule of the residual
     tol : stop when η ≤ tol; output_times : times in [0, T] at which to keep u, λ
     estimator_options : keywords of
-        :func:`~fracfem.spacetime_estimators.step_indicators` (localisation, boundary, p)
+        :func:`~fracfem.spacetime_estimators.step_indicators` (localisation, boundary, p,
+        method and tol of the pointwise (−Δ)ˢu_h)
     callback : called with each record; a truthy return stops after it
 
     Returns

@@ -33,6 +33,7 @@ import numpy as np
 
 from . import estimators
 from .assembly import mesh_arrays
+from .compressed import DEFAULT_TOL
 from .parabolic import Source, TimeStep, _as_stepper, _is_real
 from .pointwise import quadrature_points
 
@@ -120,7 +121,8 @@ def initial_indicators(problem, u0, u0h=None, *, order: int = 6,
 def step_indicators(problem, u_prev, step: TimeStep, *, f=0.0, f_time=None,
                     order: int = 4, time_quadrature: int = 3,
                     localisation: str = "patch", boundary: bool = False,
-                    p: float = 2.0, contact_nodes=None, options=None) -> dict:
+                    p: float = 2.0, contact_nodes=None, options=None,
+                    method: str = "auto", tol: float = DEFAULT_TOL) -> dict:
     """Space-time indicators of one DG(0) step k ≥ 1 on every fine element.
 
     Parameters
@@ -129,8 +131,9 @@ def step_indicators(problem, u_prev, step: TimeStep, *, f=0.0, f_time=None,
     u_prev : u^{k−1} over all fine nodes
     step : the :class:`~fracfem.parabolic.TimeStep` k (u^k, λ^k, t_k, τ_k)
     f, f_time : the load (f̄_k = time mean over I_k enters the residual)
-    order, localisation, boundary, p, contact_nodes, options : as in
-        :func:`fracfem.estimators.estimate`
+    order, localisation, boundary, p, contact_nodes, options, method, tol : as in
+        :func:`fracfem.estimators.estimate` (method and tol: how (−Δ)ˢu^k is
+        evaluated, :func:`fracfem.pointwise.fractional_laplacian_at`)
 
     Returns
     -------
@@ -162,7 +165,7 @@ def step_indicators(problem, u_prev, step: TimeStep, *, f=0.0, f_time=None,
         res, det = estimators.residual_indicators(
             mesh, u, st.s, fbar, None, contact_nodes, order, p=p,
             localisation=localisation, boundary=boundary, options=options,
-            full_output=True, rh_extra=rh_extra)
+            full_output=True, rh_extra=rh_extra, method=method, tol=tol)
         res_total = float(det["term"].sum())
         contact = np.zeros_like(res)
         contact_total = 0.0
@@ -172,7 +175,8 @@ def step_indicators(problem, u_prev, step: TimeStep, *, f=0.0, f_time=None,
         est = estimators.estimate(st.problem, u, step.lam, order, f=fbar,
                                   contact_nodes=contact_nodes, p=p,
                                   localisation=localisation, boundary=boundary,
-                                  options=options, rh_extra=rh_extra)
+                                  options=options, rh_extra=rh_extra, method=method,
+                                  tol=tol)
         parts = est["parts"]
         res, res_total = parts["residual_fine"], parts["residual"]
         contact = np.maximum(parts["contact"]["fine"], 0.0)

@@ -76,6 +76,7 @@ def test_a_job_through_slurm_matches_the_local_run(tmp_path):
     if subprocess.run(["sacct", "-n", "-X"], capture_output=True).returncode != 0:
         extra = ["--slurm-status-command", "squeue"]    # no slurmdbd: ask slurmctld
     out = subprocess.run(slurm + ["--profile", str(ROOT / "profiles" / "slurm"),
+                                  "--workflow-profile", "none",
                                   "--slurm-init-seconds-before-status-checks", "5",
                                   *extra, TARGET],
                          capture_output=True, text=True, env=env, timeout=900)

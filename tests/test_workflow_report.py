@@ -119,8 +119,10 @@ def header_cells(head, rule):
     line's bars, since a column name may contain a bar itself (max |λ|)."""
     if len(head) == len(rule):
         bars = [i for i, ch in enumerate(rule) if ch == "|"]
-        return [head[a + 1:b].strip() for a, b in zip(bars, bars[1:])]
-    return [c.strip() for c in head.strip("|").split("|")]
+        cells = [head[a + 1:b] for a, b in zip(bars, bars[1:])]
+    else:                                   # bars escaped as \| inside a name
+        cells = re.split(r"(?<!\\)\|", head.strip()[1:-1])
+    return [c.strip().replace("\\|", "|") for c in cells]
 
 
 def figures_and_tables(wf):
