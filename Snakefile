@@ -6,6 +6,10 @@ min_version("8.0")
 
 configfile: "config.yaml"
 
+# `snakemake --report report.html` (or report.zip) after a run: every figure and table
+# with its caption (report/captions/), this page first.
+report: "report/workflow.rst"
+
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/example1.smk"
@@ -13,6 +17,34 @@ include: "workflow/rules/vi.smk"
 include: "workflow/rules/parabolic.smk"
 include: "workflow/rules/report.smk"
 include: "workflow/rules/docs.smk"
+
+# Jobs that only read finished results and draw a figure or write a table (seconds
+# each): on a cluster they run beside Snakemake instead of waiting in the queue.
+localrules:
+    all,
+    ex1_table,
+    ex1_quadrature_table,
+    ex1_extra_figures,
+    fig01,
+    fig02,
+    vi_table,
+    vi_runs_md,
+    fig03,
+    fig04,
+    fig05,
+    fig06,
+    fig08,
+    thin_demo,
+    fig_vi_error,
+    reference_table,
+    elliptic_error_vs_time,
+    fig_para_error,
+    fig10,
+    fig11,
+    fig12,
+    fig14,
+    parabolic_summary,
+    rates,
 
 
 rule all:

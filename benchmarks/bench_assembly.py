@@ -50,8 +50,9 @@ def main(levels, s):
     import pandas as pd
     rows = []
     for level in levels:
+        # the level's progress lines (stderr) go straight to this run's output
         out = subprocess.run([sys.executable, __file__, "--single", str(level), "--s", str(s)],
-                             capture_output=True, text=True, check=True)
+                             stdout=subprocess.PIPE, text=True, check=True)
         rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     return pd.DataFrame(rows)
@@ -65,6 +66,8 @@ if __name__ == "__main__":
     ap.add_argument("--csv")
     ap.add_argument("--md")
     args = ap.parse_args()
+    from fracfem_workflow.logs import log_to_stderr
+    log_to_stderr()
     if args.single is not None:
         print(json.dumps(run_level(args.single, args.s)))
         sys.exit(0)

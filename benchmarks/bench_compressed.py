@@ -75,6 +75,8 @@ def main(argv=None):
     ap.add_argument("--md")
     ap.add_argument("--case", nargs=3, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    from fracfem_workflow.logs import log_to_stderr
+    log_to_stderr()
     if args.case:
         fam, size, s = args.case
         print(json.dumps(run_case(fam, float(size), float(s))))
@@ -84,8 +86,9 @@ def main(argv=None):
     cases = [("uniform", lv) for lv in args.uniform] + [("graded", h) for h in args.graded]
     for fam, size in cases:
         for s in args.s:
+            # the case's progress lines (stderr) go straight to this run's output
             out = subprocess.run([sys.executable, __file__, "--case", fam, str(size), str(s)],
-                                 capture_output=True, text=True, check=True)
+                                 stdout=subprocess.PIPE, text=True, check=True)
             row = json.loads(out.stdout.strip().splitlines()[-1])
             rows.append(row)
             print(f"{fam:8s} {size:6g} s={s:4.2f} dofs={row['dofs']:7d} "

@@ -6,6 +6,10 @@ fractional Laplacian (assembly, exact solutions, the unconstrained problem),
 the elliptic variational inequalities in mixed form (Problem 5.15) with their
 solvers, a posteriori indicators and Algorithm B, and the parabolic problems
 (DG(0) in time, Problem 6.11) with their indicators and Algorithm C.
+
+Long computations report progress through the ``logging`` module (loggers
+``fracfem.<module>``); nothing is shown unless the application configures
+logging, e.g. ``logging.basicConfig(level=logging.INFO)``.
 """
 from .meshes import (disk_graded, disk_graded_aniso, disk_graded_rings, disk_uniform, lshape,
                      refine_disk, square)
@@ -42,6 +46,11 @@ from .problems import (EXAMPLES, Example1, Example2, Example3, Example4, Example
                        parse_series_tag, series_mesh, series_tag)
 
 __version__ = "0.1.0"
+
+# silent unless the application configures logging
+import logging as _logging  # noqa: E402
+
+_logging.getLogger(__name__).addHandler(_logging.NullHandler())
 
 __all__ = [
     # meshes

@@ -14,9 +14,13 @@ Differences from the paper's Algorithm B (documented, deliberate):
   quantity of Theorem 5.20 and does not grow with the number of elements;
 * marking uses η(Δ) > θ·max η (step 5, "maximum"), i.e. η² > θ²·max η², or
   Dörfler's bulk criterion ("doerfler") on request.
+
+Progress: one INFO line per step (logger ``fracfem.adaptive``: DOFs, η, solver
+iterations, seconds) and one when the loop stops.
 """
 from __future__ import annotations
 
+import logging
 import numbers
 import time
 from dataclasses import dataclass, field
@@ -25,12 +29,15 @@ from typing import Callable, Iterator
 import numpy as np
 
 from . import estimators
+from ._progress import Ticker
 from .kkt import discrete_energy
 from .laplace import Discretisation, solve_laplace
 from .meshes import element_diameters, refine_disk
 
 __all__ = ["mark_maximum", "mark_doerfler", "algorithm_b", "algorithm_b_steps",
            "StepRecord", "MARKINGS"]
+
+logger = logging.getLogger(__name__)
 
 
 def _check_theta(theta) -> float:
@@ -129,6 +136,9 @@ def algorithm_b_steps(make_problem: Callable, coarse0, *, theta: float, steps: i
     solver_options = dict(solver_options or {})
     estimator_options = dict(estimator_options or {})
     mesh = coarse0
+    clock = Ticker(0.0)
+    logger.info("Algorithm B: at most %d steps, marking %s, theta %g, tol %s", steps, marking,
+                theta, tol)
     for k in range(steps):
         tim = {}
         t0 = time.perf_counter()
@@ -161,6 +171,7 @@ def algorithm_b_steps(make_problem: Callable, coarse0, *, theta: float, steps: i
         else:
             raise TypeError(f"make_problem must return a vi.MixedProblem or a "
                             f"laplace.Discretisation, got {type(prob).__name__}")
+        iterations = info.get("iterations", disc.info.get("iterations", "none (Cholesky)"))
         uf = u[disc.free]
         energy = discrete_energy(prob, u)
         lengths = element_diameters(fine)
@@ -187,8 +198,15 @@ def algorithm_b_steps(make_problem: Callable, coarse0, *, theta: float, steps: i
                 t0 = time.perf_counter()
                 mesh = refine_disk(coarse if coarse is not None else fine, marked)
                 tim["refine"] = time.perf_counter() - t0
+        logger.info("Algorithm B step %d: %d DOFs, %d multipliers, %d triangles, eta %.4e, "
+                    "solver iterations: %s, %s marked, %.2f s (elapsed %.1f s)", k, rec.dofs,
+                    n_mult, rec.n_triangles, rec.eta, iterations,
+                    "-" if rec.marked is None else len(rec.marked), sum(tim.values()),
+                    clock.elapsed)
         if callback is not None and callback(rec) and rec.stop is None:
             rec.stop = "callback"
+        if rec.stop is not None:
+            logger.info("Algorithm B stops after step %d: %s", k, rec.stop)
         yield rec
         if rec.stop is not None:
             return

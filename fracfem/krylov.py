@@ -7,13 +7,14 @@ import time
 import numpy as np
 import scipy.sparse.linalg as spla
 
+from ._progress import SOLVER_SECONDS, solver_level
 from .solvers import ConvergenceError
 
 log = logging.getLogger(__name__)
 
 __all__ = ["pcg", "jacobi", "ShiftedOperator"]
 
-LOG_EVERY = 10.0  # seconds between progress lines of a long solve
+LOG_EVERY = SOLVER_SECONDS  # seconds between INFO lines of a long solve
 
 
 def jacobi(diagonal: np.ndarray):
@@ -34,6 +35,10 @@ def pcg(A, b: np.ndarray, *, M=None, tol: float = 1e-10, maxiter: int = 1000,
     Stops when ‖b − A x‖ ≤ tol·‖b‖; raises :class:`ConvergenceError` after
     ``maxiter`` iterations.  M is the preconditioner, a callable r ↦ M⁻¹r.
     Returns x and {"iterations", "residual", "seconds"}.
+
+    Logs (logger ``fracfem.krylov``) one summary line at the end (INFO, DEBUG
+    inside time stepping), each iteration at DEBUG and, in a solve longer than
+    ``LOG_EVERY`` seconds, one INFO line every ``LOG_EVERY`` seconds.
     """
     if not (np.isfinite(tol) and 0.0 < tol < 1.0):
         raise ValueError(f"tol={tol!r} must be in (0, 1)")
@@ -47,7 +52,9 @@ def pcg(A, b: np.ndarray, *, M=None, tol: float = 1e-10, maxiter: int = 1000,
     nb = float(np.linalg.norm(b))
     x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=np.float64)
     if nb == 0.0:
+        log.log(solver_level(), "PCG: zero right-hand side, 0 iterations")
         return np.zeros_like(b), {"iterations": 0, "residual": 0.0, "seconds": 0.0}
+    debug = log.isEnabledFor(logging.DEBUG)
     r = b - A @ x if x0 is not None else b.copy()
     z = prec(r)
     p = z.copy()
@@ -74,8 +81,11 @@ def pcg(A, b: np.ndarray, *, M=None, tol: float = 1e-10, maxiter: int = 1000,
         if now - last > LOG_EVERY:
             log.info("PCG iteration %d: relative residual %.2e, %.1f s", it, res, now - t0)
             last = now
+        elif debug:
+            log.debug("PCG iteration %d: relative residual %.2e", it, res)
     sec = time.perf_counter() - t0
-    log.info("PCG: %d iterations, relative residual %.2e, %.2f s", it, res, sec)
+    log.log(solver_level(), "PCG: %d iterations, relative residual %.2e, %d unknowns, %.2f s",
+            it, res, len(b), sec)
     return x, {"iterations": it, "residual": res, "seconds": sec}
 
 

@@ -17,6 +17,9 @@ matrix is formed.
   residual CG drives below ``inner_tol``.
 * :func:`uzawa` — Algorithm A, each u^n = A⁻¹(f − Bλ^n) by PCG from u^{n−1};
   ρ = 1.9/σ_max of S = BᵀA⁻¹B, σ_max by Lanczos (one PCG solve per product).
+
+Both log (logger ``fracfem.krylov_vi``) one summary line at the end (INFO,
+DEBUG inside time stepping) and one DEBUG line per active-set step (PDAS).
 """
 from __future__ import annotations
 
@@ -28,6 +31,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ._progress import solver_level
 from .solvers import (SAFE_STEP, ConvergenceError, _classify, _fixed_point_residual,
                       _initial_multiplier, _uzawa_loop)
 
@@ -284,8 +288,8 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
                                          max(np.linalg.norm(lam), data_scale))
         if state is not None:
             history.append(residual)
-            log.info("pdas (%s) step %d: |E| = %d, %d inner iterations, residual %.2e",
-                     cset.kind, step, n_constrained[-1], inner[-1], residual)
+            log.debug("pdas (%s) step %d: |E| = %d, %d inner iterations, residual %.2e",
+                      cset.kind, step, n_constrained[-1], inner[-1], residual)
             same = np.array_equal(new_state, state)
             settled = same or residual < 0.1 * tol
             if settled and accuracy > inner_tol and step < maxiter:
@@ -322,8 +326,9 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
         "inner_iterations": inner,
         "seconds": {"initial": t_initial, "iterations": time.perf_counter() - t0},
     }
-    log.info("pdas (%s): %d steps, %d inner iterations, residual %.2e", cset.kind,
-             info["iterations"], sum(inner), info["residual"])
+    log.log(solver_level(), "pdas (%s): %d steps, %d inner iterations, residual %.2e, "
+            "%d unknowns, %.2f s", cset.kind, info["iterations"], sum(inner), info["residual"],
+            n, t_initial + info["seconds"]["iterations"])
     return u, lam, info
 
 
@@ -368,6 +373,8 @@ def schur_sigma_max(A, B, M=None, *, tol: float = LANCZOS_TOL,
         q = w / beta
     if not theta > 0:
         raise ValueError(f"BᵀA⁻¹B has no positive eigenvalue (σ_max = {theta}); is B zero?")
+    log.debug("Lanczos: σ_max(BᵀA⁻¹B) = %.4e after %d steps, %d inner iterations", theta,
+              len(alphas), sum(inner))
     return {"sigma_max": theta, "steps": len(alphas), "inner_iterations": sum(inner)}
 
 
@@ -417,6 +424,7 @@ def uzawa(A, B, f, cset, *, M=None, rho=None, tol: float = 1e-10, maxiter: int =
         "inner_iterations": last["inner"],
         "seconds": {"eigenvalues": t_eigen, "iterations": time.perf_counter() - t0},
     }
-    log.info("uzawa (%s): %d iterations, %d inner iterations, residual %.2e, rho %.3e",
-             cset.kind, info["iterations"], last["inner"], info["residual"], rho)
+    log.log(solver_level(), "uzawa (%s): %d iterations, %d inner iterations, residual %.2e, "
+            "rho %.3e, %.2f s", cset.kind, info["iterations"], last["inner"], info["residual"],
+            rho, t_eigen + info["seconds"]["iterations"])
     return last["u"], lam, info

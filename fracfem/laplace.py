@@ -1,12 +1,14 @@
 """The unconstrained problem a(u, v) = (f, v): Example 1 and fractional heat."""
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
 
+from ._progress import solver_level
 from .assembly import QuadratureOptions, dense_bytes, load_vector, stiffness_matrix
 from .compressed import DEFAULT_TOL, stiffness_operator
 from .krylov import pcg
@@ -19,6 +21,8 @@ AUTO_DENSE_NODES = 8000   # "auto": dense up to this many free nodes (and if it 
 SOLVER_TOL = 1e-10        # relative PCG residual of solve_laplace
 
 __all__ = ["Discretisation", "discretise", "solve_laplace"]
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass
@@ -109,4 +113,6 @@ def solve_laplace(disc: Discretisation, *, tol: float = SOLVER_TOL,
                          "is the mesh valid and s in (0, 1)?") from err
     u = sla.cho_solve(factor, disc.b)
     disc.timings["solve"] = time.perf_counter() - t0
+    logger.log(solver_level(), "solve_laplace: Cholesky solve, %d unknowns, %.2f s", n,
+               disc.timings["solve"])
     return u

@@ -44,10 +44,20 @@ mesh: an array that lies in V_h is its own projection).  The step-0 record of
 (:mod:`fracfem.spacetime_estimators`) add the term ‖u₀ − P_h u₀‖²_{L²(S_i)} of
 Theorem 6.18.  Space-time adaptivity (Algorithm C) is
 :mod:`fracfem.spacetime_adaptive`.
+
+Progress
+--------
+:func:`time_steps` logs (logger ``fracfem.parabolic``) one line per time step:
+INFO for the last step of the grid and whenever at least
+``fracfem._progress.STEP_SECONDS`` (1 s) passed since the previous INFO line,
+DEBUG otherwise, so a run of 1,000 fast steps writes a handful of INFO lines.
+The solvers of the single steps log their summaries at DEBUG; each new
+factorisation of M/τ + A is an INFO line.
 """
 from __future__ import annotations
 
 import inspect
+import logging
 import math
 import numbers
 import time
@@ -61,6 +71,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import solvers
+from ._progress import STEP_SECONDS, Ticker, inner_solves
 from .assembly import load_vector
 from .krylov import ShiftedOperator, pcg
 from .laplace import SOLVER_TOL, Discretisation
@@ -78,6 +89,8 @@ __all__ = [
 ]
 
 TAU_RTOL = 1e-9  # time steps within this relative distance share one factorisation
+
+logger = logging.getLogger(__name__)
 
 
 # ------------------------------------------------------------------ small checks
@@ -309,7 +322,7 @@ class Stepper:
             return tau, self._compressed_operator(tau)
         if self._M_dense is None:
             self._M_dense = self.M.toarray()
-        t0 = time.perf_counter()
+        t0 = t_start = time.perf_counter()
         K = self.disc.A + self._M_dense / tau
         factor = solvers.cholesky_factor(K)
         del K
@@ -320,6 +333,10 @@ class Stepper:
             t0 = time.perf_counter()
             op["schur"] = solvers.schur_complement(factor, self.cset.B)
             self.timings["schur"] += time.perf_counter() - t0
+        logger.info("Stepper: factorised M/τ + A for τ = %.4g: %d unknowns, %d multipliers "
+                    "(Schur complement), %.2f s", tau, self.n_free,
+                    0 if self.cset is None else self.cset.B.shape[1],
+                    time.perf_counter() - t_start)
         self._ops[tau] = op
         while len(self._ops) > self.max_cached:
             self._ops.popitem(last=False)
@@ -332,6 +349,8 @@ class Stepper:
         op = {"K": K, "preconditioner": multilevel_preconditioner(self.mesh, K),
               "factor": None, "schur": None, "rho": None}
         self.timings["factorisation"] += time.perf_counter() - t0
+        logger.info("Stepper: preconditioner of M/τ + A for τ = %.4g (%d unknowns), %.2f s",
+                    tau, self.n_free, time.perf_counter() - t0)
         self.n_factorisations += 1
         self._ops[tau] = op
         while len(self._ops) > self.max_cached:
@@ -367,6 +386,17 @@ class Stepper:
         tau, op = self.operator(tau)
         rhs = self.M @ u_prev / tau + load
         t0 = time.perf_counter()
+        with inner_solves():   # the solvers' summaries are DEBUG: time_steps reports
+            u, lam, info = self._solve(op, tau, u_prev, rhs, solver, lam0, solver_options)
+        seconds = time.perf_counter() - t0
+        self.timings["solve"] += seconds
+        info = dict(info)
+        info["seconds_step"] = seconds
+        info["tau_used"] = tau
+        return u, lam, info
+
+    def _solve(self, op, tau, u_prev, rhs, solver, lam0, solver_options):
+        """(u^k, λ^k, solver info) of one step with the operator ``op`` of τ."""
         if self.cset is None and op["factor"] is None:
             # warm start from u^{k−1}: the step changes u by O(τ)
             u, info = pcg(op["K"], rhs, M=op["preconditioner"], x0=u_prev, tol=SOLVER_TOL)
@@ -402,11 +432,6 @@ class Stepper:
                     self.timings["eigenvalues"] += info["seconds"]["eigenvalues"]
             else:
                 raise ValueError(f"solver={solver!r} must be 'pdas' or 'uzawa'")
-        seconds = time.perf_counter() - t0
-        self.timings["solve"] += seconds
-        info = dict(info)
-        info["seconds_step"] = seconds
-        info["tau_used"] = tau
         return u, lam, info
 
     # ---- projection
@@ -520,6 +545,10 @@ def time_steps(problem, u0, times=None, *, T=None, tau=None, t0: float = 0.0,
     grid = time_grid(times, T=T, tau=tau, t0=t0)
     source = Source(f, f_time)
     st = _as_stepper(problem)
+    clock = Ticker(STEP_SECONDS)
+    n_steps = len(grid) - 1
+    logger.debug("DG(0) time stepping (%s): %d steps on [%g, %g], %d unknowns", st.kind,
+                 n_steps, grid[0], grid[-1], st.n_free)
     u = st.project(u0, order=projection_order)
     yield TimeStep(0, float(grid[0]), 0.0, st.disc.extend(u), None,
                    {"seconds_projection": st.timings["projection"]})
@@ -530,6 +559,11 @@ def time_steps(problem, u0, times=None, *, T=None, tau=None, t0: float = 0.0,
         u, lam, info = st.step(u, b - a, load, solver=solver,
                                lam0=lam if warm_start else None,
                                solver_options=solver_options)
+        logger.log(logging.INFO if k == n_steps or clock.due() else logging.DEBUG,
+                   "DG(0) step %d/%d: t = %.6g, %d DOFs, solver iterations: %s, %.3f s "
+                   "(elapsed %.1f s)", k, n_steps, b, st.n_free,
+                   info.get("iterations", "none (Cholesky)"),
+                   info["seconds_step"], clock.elapsed)
         yield TimeStep(k, b, b - a, st.disc.extend(u), lam, info)
 
 

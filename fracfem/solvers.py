@@ -15,6 +15,11 @@ S = BᵀA⁻¹B and d = BᵀA⁻¹f − g; the dual gradient is y = Bᵀu − g.
 
 Both accept a precomputed Cholesky factor (``factor=``, from
 :func:`cholesky_factor`) so that time stepping with a fixed A factorises once.
+
+Both log (logger ``fracfem.solvers``) one summary line at the end (iterations,
+residual, seconds; INFO, DEBUG inside time stepping) and DEBUG lines per
+active-set step (PDAS) or every 1000 iterations (Uzawa); an iteration running
+longer than ``fracfem._progress.SOLVER_SECONDS`` reports at INFO every so often.
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ._progress import SOLVER_SECONDS, Ticker, solver_level
 from .memory import check_dense
 
 logger = logging.getLogger(__name__)
@@ -331,8 +337,9 @@ def uzawa(A, B, f, cset, *, rho=None, tol: float = 1e-10, maxiter: int = 100_000
         "seconds": {"factorisation": t_factor, "eigenvalues": t_eigen,
                     "iterations": time.perf_counter() - t0},
     }
-    logger.info("uzawa (%s): %d iterations, residual %.2e, rho %.3e",
-                cset.kind, info["iterations"], info["residual"], rho)
+    logger.log(solver_level(), "uzawa (%s): %d iterations, residual %.2e, rho %.3e, "
+               "%d multipliers, %.2f s", cset.kind, info["iterations"], info["residual"], rho,
+               len(lam), t_factor + t_eigen + info["seconds"]["iterations"])
     return u, lam, info
 
 
@@ -350,6 +357,7 @@ def _uzawa_loop(dual_gradient, cset, rho, tol, maxiter, lam):
     lam_ref = rho * np.linalg.norm(dual_gradient(np.zeros_like(lam)))  # λ scale
     residuals = []
     previous_change = np.inf
+    clock = Ticker(SOLVER_SECONDS)
     for n in range(maxiter + 1):
         step = cset.project(lam + rho * dual_gradient(lam))  # λ^{n+1}, step 2
         scale = max(np.linalg.norm(lam), lam_ref)
@@ -362,7 +370,10 @@ def _uzawa_loop(dual_gradient, cset, rho, tol, maxiter, lam):
         previous_change = _relative(np.linalg.norm(step - lam),
                                     max(np.linalg.norm(step), lam_ref))
         lam = step
-        if n % 1000 == 999:
+        if clock.due():
+            logger.info("uzawa: iteration %d, residual %.3e, %.1f s", n + 1, residual,
+                        clock.elapsed)
+        elif n % 1000 == 999:
             logger.debug("uzawa: iteration %d, residual %.3e", n + 1, residual)
     raise ConvergenceError(f"Uzawa ({cset.kind}) did not reach tol = {tol:g}",
                            maxiter, residuals[-1])
@@ -448,8 +459,9 @@ def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
         "seconds": {"factorisation": t_factor, "schur": t_schur,
                     "iterations": time.perf_counter() - t0},
     }
-    logger.info("pdas (%s): %d steps, residual %.2e", cset.kind,
-                info["iterations"], info["residual"])
+    logger.log(solver_level(), "pdas (%s): %d steps, residual %.2e, %d multipliers, %.2f s",
+               cset.kind, info["iterations"], info["residual"], m,
+               t_factor + t_schur + info["seconds"]["iterations"])
     return u, lam, info
 
 
@@ -528,4 +540,6 @@ def _pdas_loop(S, d, cset, c, tol, maxiter, lam):
         seen.add(new_state.tobytes())
         state = new_state
         n_constrained.append(int(np.count_nonzero(state == 0)))
+        logger.debug("pdas step %d: residual %.2e, |E| = %d", step, residual,
+                     n_constrained[-1])
         lam = _reduced_solve(S, d, state, lower, upper)

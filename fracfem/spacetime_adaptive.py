@@ -8,10 +8,16 @@ SOLVE and ESTIMATE slab by slab (:class:`_SolveEstimate`), MARK over all prisms
 (:func:`_mark_prisms`), REFINE and bisect (:func:`_refine_slabs`); the design
 decisions are listed in :func:`algorithm_c`.  Algorithm B, the elliptic
 counterpart, is :mod:`fracfem.adaptive`.
+
+Progress: one INFO line per iteration (logger ``fracfem.spacetime_adaptive``:
+slabs, time steps, DOFs, η, solver iterations, seconds), one DEBUG line per
+slab; the time steps themselves report through ``fracfem.parabolic``.
 """
 from __future__ import annotations
 
+import logging
 import math
+import numbers
 import time
 from dataclasses import dataclass, field
 from typing import Iterator
@@ -19,6 +25,7 @@ from typing import Iterator
 import numpy as np
 
 from . import estimators
+from ._progress import Ticker
 from .adaptive import MARKINGS, _check_theta
 from .meshes import element_diameters, refine_disk
 from .parabolic import (Source, Stepper, _check_solver, _is_real, _positive,
@@ -34,6 +41,8 @@ __all__ = [
     "algorithm_c_steps",
     "algorithm_c",
 ]
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass
@@ -157,6 +166,7 @@ class _SolveEstimate:
         self.pieces = [] if settings.keep_steps else None
         self.initial = 0.0
         self.last = None              # (last step, its slab index, its Stepper)
+        self.iterations = 0           # solver iterations of all steps (progress lines)
 
     def slab(self, j, slab, st) -> None:
         """Steps of slab j from the end of slab j − 1 (u₀ for j = 0), with indicators."""
@@ -191,6 +201,9 @@ class _SolveEstimate:
             self.timings["estimate"] += time.perf_counter() - t0
             prev = step
         tot["total"] = sum(tot.values())
+        logger.debug("slab %d [%g, %g]: %d steps of τ = %.4g, %d DOFs, squared indicator "
+                     "%.4e", j, slab.a, slab.b, slab.n_steps, slab.tau, slab.n_free,
+                     tot["total"])
         self.slab_totals.append(tot)
         self.prism.append(eta2)
         self.last = (prev, j, st)
@@ -218,6 +231,9 @@ class _SolveEstimate:
         rows["t"].append(step.t)
         rows["tau"].append(step.tau)
         rows["slab"].append(j)
+        iterations = step.info.get("iterations")
+        if isinstance(iterations, numbers.Integral):
+            self.iterations += int(iterations)
         if st.kind == "obstacle":
             n_act = int(np.count_nonzero(step.lam < 0))
             if n_act and self.first_contact is None:
@@ -325,6 +341,9 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
 
     cache: dict = {}      # id(coarse) → (coarse, Stepper)
     slabs = [Slab(0.0, T, coarse0)]
+    clock = Ticker(0.0)
+    logger.info("Algorithm C: at most %d iterations on [0, %g], marking %s, theta %g, "
+                "c_tau %g, tol %s", iterations, T, marking, theta, c_tau, tol)
     for it in range(iterations):
         t_iter = time.perf_counter()
         sweep = _SolveEstimate(run)
@@ -353,8 +372,17 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                 cache = {k: v for k, v in cache.items() if k in keep}
                 tim["refine"] = time.perf_counter() - t0
         tim["total"] = time.perf_counter() - t_iter
+        logger.info("Algorithm C iteration %d: %d slabs, %d time steps, %d DOFs per step "
+                    "(max), %d space-time DOFs, eta %.4e, %d solver iterations, %s marked, "
+                    "%d bisected, %.2f s (elapsed %.1f s)", it, len(rec.slabs),
+                    sum(sl.n_steps for sl in rec.slabs), max(sl.n_free for sl in rec.slabs),
+                    rec.dofs, rec.eta, sweep.iterations,
+                    "-" if rec.marked is None else sum(len(m) for m in rec.marked),
+                    len(rec.bisected or ()), tim["total"], clock.elapsed)
         if callback is not None and callback(rec) and rec.stop is None:
             rec.stop = "callback"
+        if rec.stop is not None:
+            logger.info("Algorithm C stops after iteration %d: %s", it, rec.stop)
         yield rec
         if rec.stop is not None:
             return

@@ -31,7 +31,12 @@ rule results_page:
         rules.benchmark_assembly.output.md,
         rules.bad_inputs.output.md,
     output:
-        md=f"{OUT}/RESULTS.md",
+        md=report(
+            f"{OUT}/RESULTS.md",
+            caption="../../report/captions/results-page.rst",
+            category="Across examples",
+            subcategory="Tables",
+        ),
     log:
         f"{RES}/logs/results_page.log",
     benchmark:

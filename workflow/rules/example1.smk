@@ -60,7 +60,13 @@ rule fig01:
         npz=path(rules.ex1_solve.output.npz, family="graded", s=fmt(EX1["s"]),
                  tag=series_tag("graded", EX1["figure1_h"])),
     output:
-        png=f"{OUT}/fig01-ex1-solution-graded.png",
+        png=report(
+            f"{OUT}/fig01-ex1-solution-graded.png",
+            caption="../../report/captions/fig01.rst",
+            category="Example 1",
+            subcategory="Paper figures",
+            labels={"figure": "Figure 1", "shows": "u_h on a graded mesh"},
+        ),
         pdf=f"{OUT}/fig01-ex1-solution-graded.pdf",
     log:
         f"{RES}/logs/fig01.log",
@@ -76,7 +82,13 @@ rule fig02:
     input:
         rows=ex1_runs([EX1["s"]]) + [path(rules.ex1_adaptive.output.table, s=fmt(EX1["s"]))],
     output:
-        png=f"{OUT}/fig02-ex1-error.png",
+        png=report(
+            f"{OUT}/fig02-ex1-error.png",
+            caption="../../report/captions/fig02.rst",
+            category="Example 1",
+            subcategory="Paper figures",
+            labels={"figure": "Figure 2", "shows": "energy error against DOFs"},
+        ),
         pdf=f"{OUT}/fig02-ex1-error.pdf",
     params:
         s=EX1["s"],
@@ -94,9 +106,24 @@ rule ex1_extra_figures:
     input:
         table=rules.ex1_table.output.table,
     output:
-        time=f"{OUT}/extra-ex1-error-vs-time.png",
-        orders=f"{OUT}/extra-ex1-orders.png",
-        errors=f"{OUT}/ex1-errors.md",
+        time=report(
+            f"{OUT}/extra-ex1-error-vs-time.png",
+            caption="../../report/captions/extra-ex1-error-vs-time.rst",
+            category="Example 1",
+            subcategory="Further figures",
+        ),
+        orders=report(
+            f"{OUT}/extra-ex1-orders.png",
+            caption="../../report/captions/extra-ex1-orders.rst",
+            category="Example 1",
+            subcategory="Further figures",
+        ),
+        errors=report(
+            f"{OUT}/ex1-errors.md",
+            caption="../../report/captions/ex1-errors.rst",
+            category="Example 1",
+            subcategory="Tables",
+        ),
     log:
         f"{RES}/logs/ex1_extra.log",
     benchmark:
@@ -132,7 +159,12 @@ rule ex1_quadrature_table:
                    tag=last_tag(EX1, fam))
               for fam in ("uniform", "graded")],
     output:
-        md=f"{OUT}/ex1-quadrature-check.md",
+        md=report(
+            f"{OUT}/ex1-quadrature-check.md",
+            caption="../../report/captions/ex1-quadrature-check.rst",
+            category="Benchmarks and checks",
+            subcategory="Checks",
+        ),
     log:
         f"{RES}/logs/ex1_quadrature_table.log",
     benchmark:

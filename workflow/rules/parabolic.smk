@@ -86,7 +86,15 @@ rule fig_para_error:
     input:
         csv=para_error_tables,
     output:
-        png=f"{OUT}/fig{{num}}-{{slug}}.png",
+        png=report(
+            f"{OUT}/fig{{num}}-{{slug}}.png",
+            caption="../../report/captions/fig13-fig15.rst",
+            category=lambda w: {"13": "Example 4 (parabolic obstacle)",
+                                "15": "Example 5 (parabolic friction)"}[w.num],
+            subcategory="Paper figures",
+            labels=lambda w: {"figure": f"Figure {int(w.num)}",
+                              "shows": "space-time error against space-time DOFs"},
+        ),
         pdf=f"{OUT}/fig{{num}}-{{slug}}.pdf",
     wildcard_constraints:
         num="13|15",
@@ -105,7 +113,13 @@ rule fig10:
     input:
         npz=path(rules.para_adaptive.output.npz, problem="ex4-u1"),
     output:
-        png=f"{OUT}/fig10-ex4-solution.png",
+        png=report(
+            f"{OUT}/fig10-ex4-solution.png",
+            caption="../../report/captions/fig10.rst",
+            category="Example 4 (parabolic obstacle)",
+            subcategory="Paper figures",
+            labels={"figure": "Figure 10", "shows": "u_hτ and λ_H at the final time"},
+        ),
         pdf=f"{OUT}/fig10-ex4-solution.pdf",
     params:
         figure="fig10",
@@ -124,9 +138,20 @@ rule fig14:
         npz=path(rules.para_solve.output.npz, problem="ex5", family="reference",
                  tag=PARA_REF_TAG),
     output:
-        png=f"{OUT}/fig14-ex5-solution.png",
+        png=report(
+            f"{OUT}/fig14-ex5-solution.png",
+            caption="../../report/captions/fig14.rst",
+            category="Example 5 (parabolic friction)",
+            subcategory="Paper figures",
+            labels={"figure": "Figure 14", "shows": "u_hτ and λ_H at several times"},
+        ),
         pdf=f"{OUT}/fig14-ex5-solution.pdf",
-        md=f"{OUT}/ex5-free-boundary.md",
+        md=report(
+            f"{OUT}/ex5-free-boundary.md",
+            caption="../../report/captions/ex5-free-boundary.rst",
+            category="Example 5 (parabolic friction)",
+            subcategory="Tables",
+        ),
     params:
         times=[0.0, 0.2, 0.4, 0.8],
         F=PARA["examples"]["ex5"]["F"],
@@ -145,7 +170,13 @@ rule fig11:
         npz=path(rules.para_adaptive.output.npz, problem="ex4-u2"),
         table=path(rules.para_adaptive.output.table, problem="ex4-u2"),
     output:
-        png=f"{OUT}/fig11-ex4-indicators-in-time.png",
+        png=report(
+            f"{OUT}/fig11-ex4-indicators-in-time.png",
+            caption="../../report/captions/fig11.rst",
+            category="Example 4 (parabolic obstacle)",
+            subcategory="Paper figures",
+            labels={"figure": "Figure 11", "shows": "indicators over time"},
+        ),
         pdf=f"{OUT}/fig11-ex4-indicators-in-time.pdf",
     log:
         f"{RES}/logs/fig11.log",
@@ -161,7 +192,13 @@ rule fig12:
     input:
         npz=path(rules.para_adaptive.output.npz, problem="ex4-u1"),
     output:
-        png=f"{OUT}/fig12-ex4-spacetime-meshes.png",
+        png=report(
+            f"{OUT}/fig12-ex4-spacetime-meshes.png",
+            caption="../../report/captions/fig12.rst",
+            category="Example 4 (parabolic obstacle)",
+            subcategory="Paper figures",
+            labels={"figure": "Figure 12", "shows": "space-time adaptive meshes"},
+        ),
         pdf=f"{OUT}/fig12-ex4-spacetime-meshes.pdf",
     log:
         f"{RES}/logs/fig12.log",
@@ -177,8 +214,18 @@ rule parabolic_summary:
     input:
         csv=expand(rules.para_errors.output.csv, problem=PARA_PROBLEMS),
     output:
-        md=f"{OUT}/parabolic-runs.md",
-        png=f"{OUT}/extra-parabolic-error-vs-time.png",
+        md=report(
+            f"{OUT}/parabolic-runs.md",
+            caption="../../report/captions/parabolic-runs.rst",
+            category="Across examples",
+            subcategory="Examples 4 and 5",
+        ),
+        png=report(
+            f"{OUT}/extra-parabolic-error-vs-time.png",
+            caption="../../report/captions/parabolic-runs.rst",
+            category="Across examples",
+            subcategory="Examples 4 and 5",
+        ),
     log:
         f"{RES}/logs/parabolic_summary.log",
     benchmark:
@@ -191,7 +238,12 @@ rule parabolic_summary:
 
 rule para_reference_check:
     output:
-        md=f"{OUT}/parabolic-reference-check.md",
+        md=report(
+            f"{OUT}/parabolic-reference-check.md",
+            caption="../../report/captions/parabolic-reference-check.rst",
+            category="Benchmarks and checks",
+            subcategory="Checks",
+        ),
         csv=f"{RES}/para/reference-check.csv",
     params:
         s_list=sorted({float(e["s"]) for e in PARA["examples"].values()}),

@@ -7,8 +7,18 @@ rule rates:
         vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
         para=expand(rules.para_errors.output.csv, problem=PARA_PROBLEMS),
     output:
-        csv=f"{OUT}/rates.csv",
-        md=f"{OUT}/rates.md",
+        csv=report(
+            f"{OUT}/rates.csv",
+            caption="../../report/captions/rates.rst",
+            category="Across examples",
+            subcategory="Rate table",
+        ),
+        md=report(
+            f"{OUT}/rates.md",
+            caption="../../report/captions/rates.rst",
+            category="Across examples",
+            subcategory="Rate table",
+        ),
         tex=f"{OUT}/rates.tex",
     log:
         f"{RES}/logs/rates.log",
@@ -22,8 +32,18 @@ rule rates:
 
 rule benchmark_assembly:
     output:
-        csv=f"{OUT}/benchmark-assembly.csv",
-        md=f"{OUT}/benchmark-assembly.md",
+        csv=report(
+            f"{OUT}/benchmark-assembly.csv",
+            caption="../../report/captions/benchmark-assembly.rst",
+            category="Benchmarks and checks",
+            subcategory="Benchmarks",
+        ),
+        md=report(
+            f"{OUT}/benchmark-assembly.md",
+            caption="../../report/captions/benchmark-assembly.rst",
+            category="Benchmarks and checks",
+            subcategory="Benchmarks",
+        ),
     params:
         script=str(Path(workflow.basedir) / "benchmarks" / "bench_assembly.py"),
         levels=config["benchmark"]["levels"],
@@ -44,8 +64,18 @@ rule benchmark_assembly:
 # `snakemake --cores 2 benchmark_compressed`.
 rule benchmark_compressed:
     output:
-        csv=f"{OUT}/benchmark-compressed.csv",
-        md=f"{OUT}/benchmark-compressed.md",
+        csv=report(
+            f"{OUT}/benchmark-compressed.csv",
+            caption="../../report/captions/benchmark-compressed.rst",
+            category="Benchmarks and checks",
+            subcategory="Benchmarks",
+        ),
+        md=report(
+            f"{OUT}/benchmark-compressed.md",
+            caption="../../report/captions/benchmark-compressed.rst",
+            category="Benchmarks and checks",
+            subcategory="Benchmarks",
+        ),
     params:
         script=str(Path(workflow.basedir) / "benchmarks" / "bench_compressed.py"),
         uniform=config["benchmark_compressed"]["uniform"],
@@ -66,7 +96,12 @@ rule benchmark_compressed:
 
 rule bad_inputs:
     output:
-        md=f"{OUT}/bad-inputs.md",
+        md=report(
+            f"{OUT}/bad-inputs.md",
+            caption="../../report/captions/bad-inputs.rst",
+            category="Benchmarks and checks",
+            subcategory="Checks",
+        ),
     log:
         f"{RES}/logs/bad_inputs.log",
     benchmark:
@@ -80,8 +115,18 @@ rule bad_inputs:
 # Not in `rule all`: run with `snakemake --cores 2 stability`.
 rule stability:
     output:
-        md=f"{OUT}/stability.md",
-        png=f"{OUT}/extra-stability.png",
+        md=report(
+            f"{OUT}/stability.md",
+            caption="../../report/captions/stability.rst",
+            category="Benchmarks and checks",
+            subcategory="Stability",
+        ),
+        png=report(
+            f"{OUT}/extra-stability.png",
+            caption="../../report/captions/stability.rst",
+            category="Benchmarks and checks",
+            subcategory="Stability",
+        ),
         csv=f"{RES}/stability/table.csv",
     log:
         f"{RES}/logs/stability.log",
@@ -97,7 +142,12 @@ rule stability:
 # Not in `rule all`: `snakemake --cores 2 stability_vi` (obstacle/friction part).
 rule stability_vi:
     output:
-        md=f"{OUT}/stability-vi.md",
+        md=report(
+            f"{OUT}/stability-vi.md",
+            caption="../../report/captions/stability-vi.rst",
+            category="Benchmarks and checks",
+            subcategory="Stability",
+        ),
         csv=f"{RES}/stability/vi.csv",
     log:
         f"{RES}/logs/stability_vi.log",

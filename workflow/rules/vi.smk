@@ -48,7 +48,12 @@ rule vi_runs_md:
     input:
         tables=expand(rules.vi_table.output.table, problem=VI_PROBLEMS),
     output:
-        md=f"{OUT}/vi-runs.md",
+        md=report(
+            f"{OUT}/vi-runs.md",
+            caption="../../report/captions/vi-runs.rst",
+            category="Across examples",
+            subcategory="Examples 1–3",
+        ),
     log:
         f"{RES}/logs/vi_runs_md.log",
     benchmark:
@@ -61,7 +66,13 @@ rule vi_runs_md:
 
 rule fig03:
     output:
-        png=f"{OUT}/fig03-obstacle.png",
+        png=report(
+            f"{OUT}/fig03-obstacle.png",
+            caption="../../report/captions/fig03.rst",
+            category="Example 2 (obstacle)",
+            subcategory="Paper figures",
+            labels={"figure": "Figure 3", "shows": "the obstacle"},
+        ),
         pdf=f"{OUT}/fig03-obstacle.pdf",
     params:
         height=EX2["obstacle"]["height"],
@@ -81,7 +92,13 @@ rule fig04:
         npz=path(rules.vi_solve.output.npz, problem="ex2", family="uniform",
                  tag=series_tag("uniform", EX2["figure4_level"])),
     output:
-        png=f"{OUT}/fig04-ex2-solution-uniform.png",
+        png=report(
+            f"{OUT}/fig04-ex2-solution-uniform.png",
+            caption="../../report/captions/fig04.rst",
+            category="Example 2 (obstacle)",
+            subcategory="Paper figures",
+            labels={"figure": "Figure 4", "shows": "u_h and λ_H on a uniform mesh"},
+        ),
         pdf=f"{OUT}/fig04-ex2-solution-uniform.pdf",
     params:
         figure="fig04",
@@ -100,7 +117,13 @@ rule fig08:
         npz=path(rules.vi_solve.output.npz, problem=f"ex3-{EX3['figure8_variant']}",
                  family="uniform", tag=series_tag("uniform", EX3["figure8_level"])),
     output:
-        png=f"{OUT}/fig08-ex3-solution-multiplier.png",
+        png=report(
+            f"{OUT}/fig08-ex3-solution-multiplier.png",
+            caption="../../report/captions/fig08.rst",
+            category="Example 3 (friction)",
+            subcategory="Paper figures",
+            labels={"figure": "Figure 8", "shows": "u_h and λ_H on a uniform mesh"},
+        ),
         pdf=f"{OUT}/fig08-ex3-solution-multiplier.pdf",
     params:
         title=f"Example 3 ({EX3['figure8_variant']} data)",
@@ -119,7 +142,12 @@ rule thin_demo:
         npz=path(rules.vi_solve.output.npz, problem="thin-{kind}", family="demo",
                  tag=series_tag("uniform", THIN["level"])),
     output:
-        png=f"{OUT}/extra-thin-{{kind}}.png",
+        png=report(
+            f"{OUT}/extra-thin-{{kind}}.png",
+            caption="../../report/captions/extra-thin.rst",
+            category="Thin obstacle and friction (not in the paper)",
+            subcategory="Further figures",
+        ),
     wildcard_constraints:
         kind="obstacle|friction",
     log:
@@ -189,7 +217,12 @@ rule reference_table:
         errors=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
         ex1=rules.ex1_table.output.table,
     output:
-        md=f"{OUT}/elliptic-errors.md",
+        md=report(
+            f"{OUT}/elliptic-errors.md",
+            caption="../../report/captions/elliptic-errors.rst",
+            category="Across examples",
+            subcategory="Examples 1–3",
+        ),
     params:
         family=config["reference"]["family"],
     log:
@@ -206,7 +239,13 @@ rule fig05:
     input:
         npz=path(rules.vi_adaptive.output.npz, problem="ex2"),
     output:
-        png=f"{OUT}/fig05-ex2-solution-adaptive.png",
+        png=report(
+            f"{OUT}/fig05-ex2-solution-adaptive.png",
+            caption="../../report/captions/fig05.rst",
+            category="Example 2 (obstacle)",
+            subcategory="Paper figures",
+            labels={"figure": "Figure 5", "shows": "u_h and λ_H on the last adaptive mesh"},
+        ),
         pdf=f"{OUT}/fig05-ex2-solution-adaptive.pdf",
     params:
         figure="fig05",
@@ -224,7 +263,13 @@ rule fig06:
     input:
         npz=path(rules.vi_adaptive.output.npz, problem="ex2"),
     output:
-        png=f"{OUT}/fig06-ex2-adaptive-meshes.png",
+        png=report(
+            f"{OUT}/fig06-ex2-adaptive-meshes.png",
+            caption="../../report/captions/fig06.rst",
+            category="Example 2 (obstacle)",
+            subcategory="Paper figures",
+            labels={"figure": "Figure 6", "shows": "adaptive meshes"},
+        ),
         pdf=f"{OUT}/fig06-ex2-adaptive-meshes.pdf",
     log:
         f"{RES}/logs/fig06.log",
@@ -240,7 +285,14 @@ rule fig_vi_error:
     input:
         csv=vi_error_tables,
     output:
-        png=f"{OUT}/fig{{num}}-{{slug}}.png",
+        png=report(
+            f"{OUT}/fig{{num}}-{{slug}}.png",
+            caption="../../report/captions/fig07-fig09.rst",
+            category=lambda w: {"07": "Example 2 (obstacle)", "09": "Example 3 (friction)"}[w.num],
+            subcategory="Paper figures",
+            labels=lambda w: {"figure": f"Figure {int(w.num)}",
+                              "shows": "energy error against DOFs"},
+        ),
         pdf=f"{OUT}/fig{{num}}-{{slug}}.pdf",
     wildcard_constraints:
         num="07|09",
@@ -260,8 +312,18 @@ rule elliptic_error_vs_time:
         ex1=rules.ex1_table.output.table,
         vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
     output:
-        png=f"{OUT}/extra-elliptic-error-vs-time.png",
-        md=f"{OUT}/elliptic-error-vs-time.md",
+        png=report(
+            f"{OUT}/extra-elliptic-error-vs-time.png",
+            caption="../../report/captions/elliptic-error-vs-time.rst",
+            category="Across examples",
+            subcategory="Examples 1–3",
+        ),
+        md=report(
+            f"{OUT}/elliptic-error-vs-time.md",
+            caption="../../report/captions/elliptic-error-vs-time.rst",
+            category="Across examples",
+            subcategory="Examples 1–3",
+        ),
     params:
         s=EX1["s"],
     log:

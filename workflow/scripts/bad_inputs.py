@@ -3,6 +3,7 @@
     python workflow/scripts/bad_inputs.py [--md out.md]
 """
 import argparse
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,9 @@ from fracfem import adaptive, examples, vi
 from fracfem.meshes import mesh_from_arrays
 from fracfem.solvers import ConvergenceError
 from fracfem_workflow.io import atomic_path
+from fracfem_workflow.logs import log_to, script_logger
+
+logger = script_logger("bad_inputs")
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -113,6 +117,8 @@ def run_cases():
             rows.append((param, what, type(err).__name__, str(err).splitlines()[0]))
         else:
             rows.append((param, what, "NO ERROR", ""))
+        logger.log(logging.INFO if rows[-1][2] != "NO ERROR" else logging.WARNING,
+                "%s, %s: %s", param, what, rows[-1][2])
     return rows
 
 
@@ -135,6 +141,7 @@ def main(md):
 
 if __name__ == "__main__":
     if "snakemake" in globals():
+        log_to(snakemake.log[0])  # noqa: F821
         main(snakemake.output.md)  # noqa: F821
     else:
         ap = argparse.ArgumentParser()

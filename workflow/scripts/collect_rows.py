@@ -2,6 +2,7 @@
 import pandas as pd
 
 from fracfem_workflow.io import write_table
+from fracfem_workflow.logs import log_to
 
 
 def main(rows, table):
@@ -10,4 +11,5 @@ def main(rows, table):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(list(snakemake.input.rows), snakemake.output.table)  # noqa: F821

@@ -4,6 +4,7 @@ import numpy as np
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import plt, save, time_panel
 
 
@@ -32,5 +33,6 @@ def main(ex1_csv, vi_csvs, s, png, md):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(snakemake.input.ex1, list(snakemake.input.vi), snakemake.params.s,  # noqa: F821
          snakemake.output.png, snakemake.output.md)  # noqa: F821

@@ -1,5 +1,4 @@
 """Example 1 on adaptive meshes: Algorithm B, one row per step."""
-import logging
 import time
 
 import numpy as np
@@ -8,7 +7,10 @@ import pandas as pd
 import fracfem as ff
 from fracfem import adaptive
 from fracfem_workflow.io import peak_memory_mb, save_arrays, with_provenance, write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.runs import parameter_columns, start
+
+logger = script_logger("ex1_adaptive")
 
 
 def main(s, theta, start_level, max_dofs, max_steps, quadrature, table, npz, log=None,
@@ -34,8 +36,8 @@ def main(s, theta, start_level, max_dofs, max_steps, quadrature, table, npz, log
             "t_total": sum(rec.timings.values()),
             "t_cumulative": time.perf_counter() - t_start,
             "peak_mem_mb": peak_memory_mb()})
-        logging.info("adaptive step %d: %d dofs, error %.4e, eta %.4e", rec.step, rec.dofs,
-                     rows[-1]["error"], rec.eta)
+        logger.info("adaptive step %d: %d dofs, error %.4e, eta %.4e, efficiency %.3f",
+                    rec.step, rec.dofs, rows[-1]["error"], rec.eta, rows[-1]["efficiency"])
         return rec.dofs >= max_dofs
 
     recs = adaptive.algorithm_b(lambda mesh: example.problem(mesh, quad),

@@ -2,6 +2,7 @@
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import MARKERS, plt, save
 from fracfem_workflow.report import fit_rate
 
@@ -41,5 +42,6 @@ def main(table, time_png, orders_png, errors_md):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(snakemake.input.table, snakemake.output.time, snakemake.output.orders,  # noqa: F821
          snakemake.output.errors)  # noqa: F821

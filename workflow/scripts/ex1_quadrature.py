@@ -1,17 +1,20 @@
 """Quadrature check: every order raised changes (f, u_h) by how much of err²?"""
-import logging
 
 import pandas as pd
 
 import fracfem as ff
 from fracfem_workflow.io import write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.runs import parameter_columns, start
+
+logger = script_logger("ex1_quadrature")
 
 
 def main(family, tag, grading, quadrature, run, row, log=None, threads=None):
     start(log, threads)
     base = pd.read_csv(run).iloc[0]
     raised = ff.QuadratureOptions(**quadrature).raised()
+    logger.info("%s %s s=%g: raised quadrature, %d DOFs", family, tag, base.s, base.dofs)
     disc = ff.Example1(float(base.s)).problem(ff.series_mesh(tag, grading), raised)
     fu = float(disc.b @ ff.solve_laplace(disc))
     err2 = float(base.fu_exact - base.fu_h)
@@ -20,7 +23,7 @@ def main(family, tag, grading, quadrature, run, row, log=None, threads=None):
               "error_squared": err2, "change_over_error_squared": abs(fu - base.fu_h) / err2,
               "t_assembly_raised": disc.timings["assembly"],
               **parameter_columns(quadrature=raised)}
-    logging.info("%s", result)
+    logger.info("%s", result)
     write_table(pd.DataFrame([result]), row)
 
 

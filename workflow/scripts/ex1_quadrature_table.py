@@ -2,6 +2,7 @@
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path
+from fracfem_workflow.logs import log_to
 
 COLUMNS = ["family", "s", "tag", "dofs", "fu_h", "fu_h_raised", "change", "error_squared",
            "change_over_error_squared", "t_assembly_raised"]
@@ -14,4 +15,5 @@ def main(rows, md):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(list(snakemake.input.rows), snakemake.output.md)  # noqa: F821

@@ -1,5 +1,4 @@
 """One Example 1 run: mesh → matrix → solve → one tidy row and the solution."""
-import logging
 import time
 
 import numba
@@ -9,7 +8,10 @@ import pandas as pd
 import fracfem as ff
 from fracfem.meshes import mesh_size
 from fracfem_workflow.io import peak_memory_mb, provenance, save_arrays, write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.runs import parameter_columns, start
+
+logger = script_logger("ex1_solve")
 
 
 def main(family, tag, s, grading, quadrature, row, npz, log=None, threads=None):
@@ -19,6 +21,8 @@ def main(family, tag, s, grading, quadrature, row, npz, log=None, threads=None):
     t0 = time.perf_counter()
     mesh = ff.series_mesh(tag, grading)
     t_mesh = time.perf_counter() - t0
+    logger.info("ex1 %s s=%g %s: %d triangles, %d free nodes; assembling", family, example.s,
+                tag, mesh.t.shape[1], len(mesh.interior_nodes()))
     disc = example.problem(mesh, quad)
     u = ff.solve_laplace(disc)
     fu = float(disc.b @ u)
@@ -37,8 +41,8 @@ def main(family, tag, s, grading, quadrature, row, npz, log=None, threads=None):
         "threads": numba.get_num_threads(), "peak_mem_mb": peak_memory_mb(),
         **parameter_columns(quadrature=quad), **provenance(),
     }
-    logging.info("ex1 %s s=%g %s: %d dofs, error %.4e, %.1f s", family, example.s, tag,
-                 result["dofs"], result["error"], result["t_total"])
+    logger.info("ex1 %s s=%g %s: %d dofs, error %.4e, %.1f s", family, example.s, tag,
+                result["dofs"], result["error"], result["t_total"])
     save_arrays(npz, p=mesh.p, t=mesh.t, u=disc.extend(u), s=example.s)
     write_table(pd.DataFrame([result]), row)
 

@@ -1,6 +1,7 @@
 """Figure 1: Example 1 solution on a 2-graded mesh, as a surface."""
 import numpy as np
 
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import plt, save
 
 
@@ -19,4 +20,5 @@ def main(npz, png, pdf):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(snakemake.input.npz, snakemake.output.png, snakemake.output.pdf)  # noqa: F821

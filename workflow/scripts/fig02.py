@@ -1,6 +1,7 @@
 """Figure 2: Example 1 energy error vs DOFs, uniform and 2-graded, fitted rates."""
 import pandas as pd
 
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import MARKERS, plt, save
 from fracfem_workflow.report import PAPER_RATES, fit_rate
 
@@ -21,5 +22,6 @@ def main(rows, s, png, pdf):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(list(snakemake.input.rows), snakemake.params.s, snakemake.output.png,  # noqa: F821
          snakemake.output.pdf)  # noqa: F821

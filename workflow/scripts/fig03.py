@@ -1,6 +1,7 @@
 """Figure 3: the obstacle χ (Examples 2 and 4)."""
 import fracfem as ff
 from fracfem.examples import paraboloid_obstacle
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import plt, save
 
 
@@ -15,5 +16,6 @@ def main(height, slope, png, pdf):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(snakemake.params.height, snakemake.params.slope, snakemake.output.png,  # noqa: F821
          snakemake.output.pdf)  # noqa: F821

@@ -2,6 +2,7 @@
 T on its last adaptive mesh) with λ_H and the contact set."""
 import numpy as np
 
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import multiplier_panel, save, solution_figure
 
 TITLES = {
@@ -20,5 +21,6 @@ def main(npz, figure, png, pdf):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(snakemake.input.npz, snakemake.params.figure, snakemake.output.png,  # noqa: F821
          snakemake.output.pdf)  # noqa: F821

@@ -1,6 +1,7 @@
 """Figure 6: Example 2 adaptive meshes T_h after several refinements, coarse indicators."""
 import numpy as np
 
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import plt, save
 
 
@@ -25,4 +26,5 @@ def main(npz, png, pdf):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(snakemake.input.npz, snakemake.output.png, snakemake.output.pdf)  # noqa: F821

@@ -1,4 +1,5 @@
 """Figure 8: Example 3, u_h (left) and λ_H (right)."""
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import multiplier_panel, save, solution_figure
 
 
@@ -12,5 +13,6 @@ def main(npz, title, png, pdf):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(snakemake.input.npz, snakemake.params.title, snakemake.output.png,  # noqa: F821
          snakemake.output.pdf)  # noqa: F821

@@ -2,6 +2,7 @@
 import numpy as np
 import pandas as pd
 
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import plt, save
 
 
@@ -25,5 +26,6 @@ def main(npz, table, png, pdf):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(snakemake.input.npz, snakemake.input.table, snakemake.output.png,  # noqa: F821
          snakemake.output.pdf)  # noqa: F821

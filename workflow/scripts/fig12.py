@@ -1,6 +1,7 @@
 """Figure 12: Example 4 (u₀ = 1), slices of the space-time adaptive meshes."""
 import numpy as np
 
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import plt, save
 
 
@@ -35,4 +36,5 @@ def main(npz, png, pdf):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(snakemake.input.npz, snakemake.output.png, snakemake.output.pdf)  # noqa: F821

@@ -3,6 +3,7 @@ import numpy as np
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import plt, save
 
 
@@ -51,5 +52,6 @@ def main(npz, times_shown, F, png, pdf, md):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(snakemake.input.npz, snakemake.params.times, snakemake.params.F,  # noqa: F821
          snakemake.output.png, snakemake.output.pdf, snakemake.output.md)  # noqa: F821

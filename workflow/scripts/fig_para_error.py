@@ -1,6 +1,7 @@
 """Figures 13 and 15: L²(0,T; H^s) error vs space-time DOFs (Examples 4 and 5)."""
 import pandas as pd
 
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import MARKERS, plt, save
 from fracfem_workflow.report import PAPER_RATES, fit_rate
 
@@ -30,4 +31,5 @@ def main(csvs, png, pdf):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(list(snakemake.input.csv), snakemake.output.png, snakemake.output.pdf)  # noqa: F821

@@ -1,6 +1,7 @@
 """Thin obstacle / thin friction demonstration: u_h and λ_H along Γ̃."""
 import numpy as np
 
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import save, solution_figure
 
 
@@ -18,4 +19,5 @@ def main(npz, png):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(snakemake.input.npz, snakemake.output.png)  # noqa: F821

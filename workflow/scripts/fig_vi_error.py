@@ -1,6 +1,7 @@
 """Figures 7 and 9: energy error of Examples 2 / 3 vs DOFs, estimator next to it."""
 import pandas as pd
 
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import MARKERS, plt, save
 from fracfem_workflow.report import PAPER_RATES, fit_rate
 
@@ -33,4 +34,5 @@ def main(csvs, png, pdf):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(list(snakemake.input.csv), snakemake.output.png, snakemake.output.pdf)  # noqa: F821

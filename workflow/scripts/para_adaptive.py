@@ -1,5 +1,4 @@
 """Examples 4, 5 on space-time adaptive meshes: Algorithm C, error per iteration."""
-import logging
 import time
 
 import numpy as np
@@ -8,7 +7,10 @@ import pandas as pd
 import fracfem as ff
 from fracfem.transfer import space_time_distance
 from fracfem_workflow.io import peak_memory_mb, save_arrays, with_provenance, write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.runs import parabolic_pieces, parameter_columns, start
+
+logger = script_logger("para_adaptive")
 
 
 def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
@@ -22,6 +24,8 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     obstacle = example == "ex4"
     ref_pieces, d = parabolic_pieces(ref)
     s = float(d["s"])
+    logger.info("reference solution %s: %d time steps on %d nodes; assembling its matrix",
+                ref, len(ref_pieces), ref_pieces[0][2].p.shape[1])
     t0 = time.perf_counter()
     ref_disc = ff.discretise(ref_pieces[0][2], s, 0.0, quadrature=quad)
     t_ref = time.perf_counter() - t0
@@ -48,8 +52,9 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
             # all passes so far, without the error measurement (as for the other families)
             "t_wall": time.perf_counter() - t_start - t_eval[0],
             "t_error_measurement": t_eval[0], "peak_mem_mb": peak_memory_mb()})
-        logging.info("iteration %d: %d space-time DOFs, %d slabs, eta %.4e, error %.4e",
-                     rec.iteration, rec.dofs, len(rec.slabs), rec.eta, err)
+        logger.info("iteration %d: %d space-time DOFs, %d slabs, eta %.4e, error %.4e "
+                    "(measured in %.1f s)", rec.iteration, rec.dofs, len(rec.slabs), rec.eta,
+                    err, time.perf_counter() - t0)
         st = rec.steps
         arrays.update({f"t_it{rec.iteration}": st["t"], f"tau_it{rec.iteration}": st["tau"],
                        f"eta2_it{rec.iteration}": st["total"],

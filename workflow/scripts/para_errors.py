@@ -5,7 +5,6 @@ polygon); both functions are piecewise constant in time, the time integral is
 exact on the union of the two time grids (fracfem.transfer.space_time_distance);
 the norm is the a-norm of the reference mesh.
 """
-import logging
 
 import numpy as np
 import pandas as pd
@@ -13,8 +12,11 @@ import pandas as pd
 import fracfem as ff
 from fracfem.transfer import space_time_distance
 from fracfem_workflow.io import write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import fit_rate
 from fracfem_workflow.runs import parabolic_pieces, start
+
+logger = script_logger("para_errors")
 
 
 def main(rows, npzs, ref, adaptive, quadrature, csv, log=None, threads=None):
@@ -23,13 +25,15 @@ def main(rows, npzs, ref, adaptive, quadrature, csv, log=None, threads=None):
     start(log, threads)
     ref_pieces, d = parabolic_pieces(ref)
     s = float(d["s"])
+    logger.info("reference solution %s: %d time steps on %d nodes; assembling its matrix",
+                ref, len(ref_pieces), ref_pieces[0][2].p.shape[1])
     disc = ff.discretise(ref_pieces[0][2], s, 0.0, quadrature=ff.QuadratureOptions(**quadrature))
     df = pd.concat([pd.read_csv(r) for r in rows], ignore_index=True)
     errors = {}
-    for npz in npzs:
+    for i, npz in enumerate(npzs):
         run, _ = parabolic_pieces(npz)
         errors[npz] = space_time_distance(run, ref_pieces, disc.A, disc.free)
-        logging.info("%s: %.6e", npz, errors[npz])
+        logger.info("run %d/%d, %s: error %.6e", i + 1, len(npzs), npz, errors[npz])
     df["error"] = [errors[n] for n in npzs]
     df = pd.concat([df, pd.read_csv(adaptive)], ignore_index=True)
     ref_dofs = len(disc.free) * len(ref_pieces)

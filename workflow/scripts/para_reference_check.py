@@ -2,7 +2,6 @@
 heat solution u = e^{−t}(1−|x|²)^{1+s} on the meshes and time steps of Examples 4/5:
 the exact L²(0,T; H^s) error next to the error measured against a reference run made
 exactly like the examples' reference (fracfem.transfer.space_time_distance)."""
-import logging
 
 import pandas as pd
 
@@ -11,8 +10,11 @@ from fracfem import exact, vi
 from fracfem.meshes import mesh_size
 from fracfem.transfer import space_time_distance
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import fit_rate
 from fracfem_workflow.runs import parameter_columns, start
+
+logger = script_logger("para_reference_check")
 
 
 def run(mesh, s, T, tau_factor, quad):
@@ -32,9 +34,13 @@ def fine_mesh(tag, grading):
 def check(s, T, grading, series, tau_factor, reference_tag, reference_tau_factor, quad):
     """(runs table, summary rows, text) for one order s; series: [(family, tag)]."""
     ref_mesh = fine_mesh(reference_tag, grading)
+    logger.info("s = %g: reference solution on %s (%d nodes)", s, reference_tag,
+                ref_mesh.p.shape[1])
     ref_disc, ref_steps = run(ref_mesh, s, T, reference_tau_factor, quad)
     ref = [(st.t - st.tau, st.t, ref_mesh, st.u) for st in ref_steps[1:]]
     ref_exact = ff.heat_error(ref_steps, ref_disc, s)
+    logger.info("s = %g: reference solution done, %d DOFs × %d steps, exact error %.4e", s,
+                len(ref_disc.free), len(ref_steps) - 1, ref_exact)
     rows = []
     for fam, tag in series:
         mesh = fine_mesh(tag, grading)
@@ -45,7 +51,7 @@ def check(s, T, grading, series, tau_factor, reference_tag, reference_tau_factor
                      "exact error": ff.heat_error(steps, disc, s),
                      "error vs reference": space_time_distance(pieces, ref, ref_disc.A,
                                                                ref_disc.free)})
-        logging.info("%s", rows[-1])
+        logger.info("%s", rows[-1])
     df = pd.DataFrame(rows)
     summary = []
     for fam, g in df.groupby("family"):

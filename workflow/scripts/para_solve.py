@@ -1,5 +1,4 @@
 """One parabolic run (Examples 4, 5): DG(0) steps of Problem 6.11 on one mesh pair."""
-import logging
 import time
 
 import numpy as np
@@ -8,7 +7,10 @@ import pandas as pd
 import fracfem as ff
 from fracfem.meshes import mesh_size
 from fracfem_workflow.io import peak_memory_mb, provenance, save_arrays, write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.runs import parameter_columns, start
+
+logger = script_logger("para_solve")
 
 
 def multiplier_counts(obstacle, lam, upper):
@@ -32,6 +34,10 @@ def main(problem, family, tag, example, data, grading, T, tau_factor, tol, quadr
     s = prob.disc.s
     h = mesh_size(prob.fine)
     times = ff.time_grid(T=T, tau=ff.time_step(h, s, tau_factor))
+    logger.info("%s %s %s%s: %d DOFs, %d multipliers, %d time steps of τ = %.4g on [0, %g]",
+                problem, family, tag, " (the reference solution)" if family == "reference"
+                else "", len(prob.disc.free), prob.cset.n_multipliers, len(times) - 1,
+                times[1] - times[0], T)
     U, LAM, per_step = [], [], []
     t_steps = time.perf_counter()
     stepper = ff.Stepper(prob)
@@ -66,7 +72,7 @@ def main(problem, family, tag, example, data, grading, T, tau_factor, tol, quadr
         **parameter_columns(quadrature=quad, grading=grading, T=T, tau_factor=tau_factor,
                             solver="pdas", tol=tol),
         **provenance()}
-    logging.info("%s", result)
+    logger.info("%s", result)
     save_arrays(npz, p=prob.fine.p, t=prob.fine.t, pc=prob.coarse.p, tc=prob.coarse.t,
                 times=times, U=U, LAM=LAM, s=s, free=prob.disc.free,
                 **{f"step_{key}": np.array([r[key] for r in per_step]) for key in per_step[0]})

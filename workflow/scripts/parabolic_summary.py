@@ -2,6 +2,7 @@
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import plt, save, time_panel
 
 
@@ -28,4 +29,5 @@ def main(csvs, md, png):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(list(snakemake.input.csv), snakemake.output.md, snakemake.output.png)  # noqa: F821

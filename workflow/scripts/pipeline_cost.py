@@ -40,14 +40,7 @@ def main(results, out):
             + "\n\nThe most expensive jobs:\n\n"
             + heavy.to_markdown(index=False, floatfmt=".1f") + "\n")
     Path(out, "pipeline-cost.md").write_text(text)
-    main_parts = df[~df.part.str.startswith("stability")]
-    summary_line = (f"The last full run (`snakemake --cores 2`) had {len(main_parts)} jobs and "
-                    f"{main_parts.seconds.sum() / 60:.0f} minutes of job time (two threads "
-                    "per job, so on 2 cores about its wall time); its largest job peaked at "
-                    f"{main_parts.max_rss_mb.max() / 1024:.1f} GB.")
-    Path(out, "pipeline-cost-summary.md").write_text(summary_line + "\n")
     print(text)
-    print(summary_line)
 
 
 if __name__ == "__main__":

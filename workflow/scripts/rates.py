@@ -2,6 +2,7 @@
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path, write_table
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.report import rate_table
 
 
@@ -85,6 +86,7 @@ def to_latex(df):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main([snakemake.input.ex1] + list(snakemake.input.vi)  # noqa: F821
          + list(snakemake.input.para),  # noqa: F821
          snakemake.output.csv, snakemake.output.md, snakemake.output.tex)  # noqa: F821

@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path
+from fracfem_workflow.logs import log_to
 from fracfem_workflow.report import energy_error, extrapolate_energy
 
 
@@ -68,5 +69,6 @@ def main(refs, errors, ex1_csv, family, md):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(list(snakemake.input.refs), list(snakemake.input.errors),  # noqa: F821
          snakemake.input.ex1, snakemake.params.family, snakemake.output.md)  # noqa: F821

@@ -56,8 +56,9 @@ SECTIONS = [
 ]
 
 TITLE = ("# Results\n\nEvery figure and table of the last `snakemake` run in this folder, "
-         "grouped by example. Built by the rule `results_page`; the column names are "
-         "defined in the README's glossary. Targets outside `rule all` write their own "
+         "grouped by example. Built by the rule `results_page`; every column is defined in "
+         "`docs/glossary.md` (those of the paper's tables also in the README's glossary). "
+         "Targets outside `rule all` write their own "
          "pages here: `stability.md` and `stability-vi.md` (`snakemake --cores 2 stability "
          "stability_vi`) and `benchmark-compressed.md` (`snakemake --cores 2 "
          "benchmark_compressed`).\n")

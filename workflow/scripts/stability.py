@@ -11,8 +11,11 @@ import pandas as pd
 import fracfem as ff
 from fracfem.meshes import min_angle
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.plotstyle import plt, save
 from fracfem_workflow.runs import start
+
+logger = script_logger("stability")
 
 
 def case(label, mesh, s):
@@ -42,6 +45,7 @@ def case(label, mesh, s):
     except (ValueError, np.linalg.LinAlgError) as err:
         row.update(status=f"refused: {err}")
     row["seconds"] = time.perf_counter() - t0
+    logger.info("%s, s = %g: %s, %.1f s", label, s, row["status"], row["seconds"])
     return row
 
 

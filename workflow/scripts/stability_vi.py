@@ -11,7 +11,10 @@ from fracfem import examples, vi
 from fracfem.meshes import min_angle
 from fracfem.solvers import ConvergenceError
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.runs import start
+
+logger = script_logger("stability_vi")
 
 CHI = examples.paraboloid_obstacle(1.0, 4.0)
 
@@ -57,6 +60,11 @@ def parabolic_case(kind, tau, coarse):
             "uzawa": uz_it, "max |u_pdas − u_uzawa|": du}
 
 
+def _done(row):
+    """One log line per case."""
+    logger.info("%s: %s, %.1f s", row["case"], row.get("status", "ok"), row["seconds"])
+
+
 def _uzawa(run):
     """Uzawa's result, or the reason it stopped (it is the cross-check, PDAS the solver)."""
     try:
@@ -96,6 +104,7 @@ def main(md, csv, log=None, threads=None):
                 row = {"case": f"{kind}, τ = {tau:g}", "status": f"refused: {err}"}
             row["seconds"] = time.perf_counter() - t0
             rows.append(row)
+            _done(row)
 
     def rel_to_free(prob, u, lam):
         w = free_solution(prob)
@@ -140,6 +149,7 @@ def main(md, csv, log=None, threads=None):
             row = {"case": label, "status": f"refused: {err}"}
         row["seconds"] = time.perf_counter() - t0
         rows.append(row)
+        _done(row)
     # u₀ = χ: the parabolic obstacle problem started on the obstacle
     t0 = time.perf_counter()
     prob = vi.mixed_problem("obstacle", coarse, 0.5, 0.0, chi=CHI)
@@ -152,6 +162,7 @@ def main(md, csv, log=None, threads=None):
                  "max gap at t = τ": float(y[0].max()),
                  "contact fraction": float(np.mean(steps[1].lam < 0)),
                  "seconds": time.perf_counter() - t0})
+    _done(rows[-1])
     df = pd.DataFrame(rows)
     if "status" not in df:
         df["status"] = "ok"

@@ -1,12 +1,15 @@
-"""Copy the pipeline's measured numbers into README.md and docs/*.md between markers.
+"""Copy the pipeline's measured numbers into README.md and docs/*.md between markers, and
+the column glossary into them and into the report's front page.
 
     python workflow/scripts/update_readme.py [--root paper-figures] [--check]
 
-Each block <!-- BEGIN name --> ... <!-- END name --> is replaced by the file
+Each Markdown block <!-- BEGIN name --> ... <!-- END name --> is replaced by the file
 <root>/<name>.md written by the pipeline (or by the column glossary of
-``fracfem_workflow.glossary`` for the blocks ``glossary`` and ``glossary-full``),
-so every number in the README and the docs comes from a pipeline output, never
-from typing.  ``--check`` changes nothing and exits 1 if a block is out of date.
+``fracfem_workflow.glossary`` for the blocks ``glossary`` and ``glossary-full``), so
+every number in the README and the docs comes from a pipeline output, never from
+typing.  In report/workflow.rst the block between the comments ``.. BEGIN glossary-rst``
+and ``.. END glossary-rst`` is the same glossary as reStructuredText.  ``--check``
+changes nothing and exits 1 if a block is out of date.
 """
 import argparse
 import re
@@ -17,13 +20,16 @@ from fracfem_workflow import glossary
 
 ROOT = Path(__file__).resolve().parents[2]
 BLOCK = re.compile(r"<!-- BEGIN ([\w.-]+) -->.*?<!-- END \1 -->", flags=re.S)
+RST_BLOCK = re.compile(r"^\.\. BEGIN ([\w.-]+)\n.*?^\.\. END \1$", flags=re.S | re.M)
 GENERATED = {"glossary": lambda: glossary.markdown(readme_only=True),
              "glossary-full": lambda: glossary.markdown()}
+GENERATED_RST = {"glossary-rst": lambda: glossary.rst()}
 
 
 def documents(root=ROOT):
     """The files whose blocks are generated."""
-    return [root / "README.md"] + sorted((root / "docs").glob("*.md"))
+    return ([root / "README.md"] + sorted((root / "docs").glob("*.md"))
+            + [root / "report" / "workflow.rst"])
 
 
 def block_text(name, figures):
@@ -35,11 +41,21 @@ def block_text(name, figures):
     return src.read_text().strip()
 
 
+def rst_block_text(name):
+    if name not in GENERATED_RST:
+        raise KeyError(f"unknown reStructuredText block {name!r}")
+    return GENERATED_RST[name]()
+
+
 def fill(text, figures):
     """`text` with every block replaced by its current content."""
-    return BLOCK.sub(lambda m: f"<!-- BEGIN {m.group(1)} -->\n"
+    text = BLOCK.sub(lambda m: f"<!-- BEGIN {m.group(1)} -->\n"
                                f"{block_text(m.group(1), figures)}\n"
                                f"<!-- END {m.group(1)} -->", text)
+    # RST comments end at the first blank line, so the content stands apart from them
+    return RST_BLOCK.sub(lambda m: f".. BEGIN {m.group(1)}\n\n"
+                                   f"{rst_block_text(m.group(1))}\n\n"
+                                   f".. END {m.group(1)}", text)
 
 
 def main(root="paper-figures", check=False):

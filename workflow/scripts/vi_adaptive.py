@@ -1,5 +1,4 @@
 """Examples 2 and 3 on adaptive meshes: Algorithm B on the multiplier mesh T_H."""
-import logging
 import time
 
 import numpy as np
@@ -8,7 +7,10 @@ import pandas as pd
 import fracfem as ff
 from fracfem import adaptive
 from fracfem_workflow.io import peak_memory_mb, save_arrays, with_provenance, write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.runs import parameter_columns, start
+
+logger = script_logger("vi_adaptive")
 
 
 def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure_steps, tol,
@@ -41,8 +43,8 @@ def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure
             "peak_mem_mb": peak_memory_mb()})
         if rec.step in keep:
             meshes[rec.step] = (rec.mesh, rec.coarse, rec.indicators["eta2_coarse"])
-        logging.info("step %d: %d dofs, eta %.4e, energy %.8f", rec.step, rec.dofs, rec.eta,
-                     rec.energy)
+        logger.info("adaptive step %d: %d dofs, eta %.4e, energy %.8f", rec.step, rec.dofs,
+                    rec.eta, rec.energy)
         return rec.dofs >= max_dofs
 
     recs = adaptive.algorithm_b(lambda coarse: ex.problem(coarse, quad),

@@ -6,15 +6,17 @@ for the printed Example 3 (pure slip) and otherwise the three-point extrapolatio
 of the reference family's energies (fracfem_workflow.report.extrapolate_energy).
 """
 import json
-import logging
 
 import numpy as np
 import pandas as pd
 
 import fracfem as ff
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import energy_error, extrapolate_energy, fit_rate
 from fracfem_workflow.runs import parameter_names, start
+
+logger = script_logger("vi_errors")
 
 WALL = ["t_mesh", "t_assembly", "t_factorisation", "t_schur", "t_pdas"]
 
@@ -29,7 +31,7 @@ def reference_energy(problem, exact, reference_family, series):
             if name == reference_family:       # the reference itself must exist
                 raise
             # the other family only serves as a cross-check (pre-asymptotic on tiny meshes)
-            logging.warning("no extrapolation of the %s family: %s", name, err)
+            logger.warning("no extrapolation of the %s family: %s", name, err)
             ext = {"energy": float("nan"), "beta": float("nan"), "dofs_used": []}
         info[f"extrapolated_{name}"] = ext["energy"]
         info[f"beta_{name}"] = ext["beta"]
@@ -85,7 +87,7 @@ def main(problem, example, data, reference_family, series, adaptive, csv, json_p
         rates[fam] = [min(fits), max(fits)] if fits else None
     info["rate_range_over_references"] = rates
     info["finest_error"] = float(finest)
-    logging.info("%s", info)
+    logger.info("%s", info)
     write_table(with_provenance(df), csv)
     clean = {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
              for k, v in info.items()}

@@ -2,6 +2,7 @@
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path
+from fracfem_workflow.logs import log_to
 
 COLUMNS = ["problem", "family", "dofs", "multipliers", "h_max", "iterations_uzawa",
            "iterations_pdas", "contact", "slip_plus", "slip_minus", "stick",
@@ -17,4 +18,5 @@ def main(tables, md):
 
 
 if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
     main(list(snakemake.input.tables), snakemake.output.md)  # noqa: F821

@@ -1,5 +1,4 @@
 """One obstacle / friction run (mixed form, Problem 5.15): both solvers, one row."""
-import logging
 
 import numpy as np
 import pandas as pd
@@ -8,7 +7,10 @@ import fracfem as ff
 from fracfem import vi
 from fracfem.meshes import mesh_size
 from fracfem_workflow.io import peak_memory_mb, provenance, save_arrays, write_table
+from fracfem_workflow.logs import script_logger
 from fracfem_workflow.runs import parameter_columns, start
+
+logger = script_logger("vi_solve")
 
 
 def main(problem, family, tag, example, data, grading, tol, maxiter, quadrature, row, npz,
@@ -17,6 +19,8 @@ def main(problem, family, tag, example, data, grading, tol, maxiter, quadrature,
     start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
     prob = ff.example(example, **data).problem(ff.multiplier_mesh(tag, grading), quad)
+    logger.info("%s %s %s: %d DOFs, %d multipliers; PDAS, then Uzawa as a cross-check",
+                problem, family, tag, len(prob.disc.free), prob.cset.n_multipliers)
     u_p, lam_p, info_p = vi.solve(prob, "pdas", tol=tol)
     u_u, lam_u, info_u = vi.solve(prob, "uzawa", tol=tol, maxiter=maxiter)
     result = {
@@ -37,7 +41,7 @@ def main(problem, family, tag, example, data, grading, tol, maxiter, quadrature,
                             cross_check="uzawa", tol=tol, maxiter=maxiter),
         **provenance(),
     }
-    logging.info("%s", result)
+    logger.info("%s", result)
     save_arrays(npz, p=prob.fine.p, t=prob.fine.t, pc=prob.coarse.p, tc=prob.coarse.t,
                 u=u_p, lam=lam_p, edges=(prob.edges if prob.edges is not None
                                          else np.zeros((2, 0), int)), s=prob.disc.s)

@@ -1,181 +1,200 @@
 """What every column of the pipeline's and the benchmarks' tables means.
 
-One source for the README's glossary (``workflow/scripts/update_readme.py`` renders
-it) and for the test that every column of every committed table is defined.
-Groups are (title, in_readme, {column: meaning}); a column defined in an earlier
-group is not repeated in a later one.  The README shows the groups of the paper's
-tables (in_readme); docs/glossary.md shows all.
+The one source of the column definitions: ``workflow/scripts/update_readme.py``
+renders it into the README (the groups with in_readme), into docs/glossary.md (all
+groups) and into the front page of ``snakemake --report`` (report/workflow.rst, all
+groups, as reStructuredText); a test checks that every column of every committed
+table is defined.
+
+Groups are (title, in_readme, {columns: meaning}); columns is one name or a tuple of
+names sharing a meaning.  A column defined in an earlier group is not repeated in a
+later one.  Titles and meanings are Markdown with `code` spans only: they are turned
+into reStructuredText by :func:`rst`.
 """
+import re
+import textwrap
 
 GROUPS = [
-    ("Every table", True, {
-        "s": "fractional order",
-        "family": "mesh family: `uniform` (red refinement of the disk), `graded` (2-graded "
-                  "towards the boundary), `adaptive` (Algorithm B or C), `reference`",
-        "tag": "a series member: `L<level>` uniform, `h<h>` graded",
-        "level": "uniform refinement level of the disk mesh",
-        "dofs": "unknowns of u_h: the free (interior) nodes of the fine mesh T_h",
-        "problem": "example and data variant: `ex2`, `ex3-printed` (the paper's data), "
-                   "`ex3-signchange` (f = 1 − 3|x|²), `ex4-u1` (u₀ = 1), `ex4-u2` (ũ₀ = 2), "
-                   "`ex5`",
-        "example": "the paper's example number",
-        "variant": "the data variant of an example (as in `problem`)",
-        "error": "energy error: ((f,u) − (f,u_h))^½ with the exact (f,u) (Example 1); "
-                 "√(2|E(u_h) − E_ref|), E the discrete energy (Examples 2, 3); the "
-                 "L²(0,T; Hˢ) distance to the reference run (Examples 4, 5); in "
-                 "`bad-inputs.md` the exception raised",
-        "eta": "the a posteriori estimator η of the run (Sections 6, 7 of the paper)",
-        "efficiency": "eta / error",
-        "steps": "adaptive steps (`elliptic-errors.md`) or time steps (`parabolic-runs.md`)",
-        "multipliers": "m: elements of the multiplier mesh T_H (λ_H is P0 on T_H)",
-        "h_max": "longest edge of the fine mesh T_h",
-        "status": "`ok`, or why the case was refused",
-        "case": "the configuration tried",
-        "seconds": "wall seconds of the job or case",
-        "peak_mem_mb": "peak resident memory of the run's process, MB",
-        "peak_rss_mb": "peak resident memory, MB (largest job of a part in "
-                       "`pipeline-cost.md`)",
+    ("Shared columns", True, {
+        "s": "order of the fractional Laplacian",
+        "problem": "`ex2`, `ex3-<key of example3.variants>`: `ex3-printed` (the paper's "
+                   "data), `ex3-signchange` (f = 1 − 3|x|²), and the keys of "
+                   "`parabolic.examples`: `ex4-u1`, `ex4-u2` (u₀ = 1, 2), `ex5`",
+        ("example", "variant"): "the paper's example number, and the data set within it "
+                                "(`printed`, `signchange`, `u1`, `u2`; else empty)",
+        "family": "mesh family: `uniform`, `graded` (towards the boundary circle), "
+                  "`adaptive` (Algorithm B for Examples 1–3, C for Examples 4, 5)",
+        "tag": "the run within its family: `L<level>`, `h<h>`, `step<k>` (Algorithm B after "
+               "k refinements), `it<k>` (pass k of Algorithm C)",
+        "dofs": "free (interior) nodes of the P1 mesh (the fine mesh T_h for the mixed "
+                "problems), for Algorithm C the most over its time slabs "
+                "(`elliptic-errors.md`: range of the adaptive series)",
+        "steps": "time steps, for Algorithm C summed over its slabs (`elliptic-errors.md`: "
+                 "runs of the adaptive series)",
+        "spacetime_dofs": "`dofs` × `steps`, for Algorithm C Σ_j steps × free nodes of slab j",
+        "multipliers": "number of values of λ_H, the elements of T_H (coarse edges for the "
+                       "thin problems)",
+        "h_max": "largest triangle diameter (longest edge) of the fine mesh",
+        "error": "Example 1 ‖u − u_h‖_a = √((f,u) − (f,u_h)), Examples 2, 3 "
+                 "√(2|E(u_h) − E_ref|) (E the discrete energy), Examples 4, 5 the L²(0,T; a) "
+                 "distance to the reference run (`bad-inputs.md`: the exception class)",
+        "eta": "global a posteriori estimator η of Section 7 (parabolic: of Theorem 6.18, "
+               "space, time, contact and initial parts), adaptive runs only",
+        "efficiency": "`eta` / `error`",
+        "peak_mem_mb": "peak resident memory of the job's process so far, MiB",
     }),
-    ("Timings", True, {
-        "t_assembly": "wall seconds of stiffness matrix and load vector",
-        "t_solve": "wall seconds of the linear solve",
-        "t_total": "wall seconds of the whole run: mesh, assembly, solve, estimator",
-        "t_cumulative": "adaptive series: t_total summed over all steps so far",
-        "t_schur": "forming the Schur complement S = BᵀA⁻¹B",
-        "t_uzawa": "Uzawa (Algorithm A) solve",
-        "t_pdas": "primal–dual active set solve",
-        "t_wall": "wall seconds of a parabolic run (adaptive: all passes so far, without "
-                  "the error measurement)",
-        "common error": "the smallest error every family reaches",
-        "t_adaptive [s]": "wall seconds the adaptive family needs to reach the common error",
-        "t_graded [s]": "the same for the graded family",
-        "t_uniform [s]": "the same for the uniform family",
-        "fastest": "family with the smallest of those times",
-        "speed-up vs slowest": "slowest of the three times / fastest",
+    ("Wall seconds (`t_*`, measured: they change on every run)", True, {
+        "t_assembly": "stiffness matrix and load vector (adaptive: the step's discrete "
+                      "problem)",
+        "t_solve": "the linear solve",
+        "t_total": "mesh + assembly + solve (adaptive: assemble, solve, estimate, mark and "
+                   "refine of the step)",
+        "t_cumulative": "adaptive: from the start of Algorithm B to the end of the step",
+        "t_schur": "the Schur complement S = BᵀA⁻¹B, after the Cholesky factor of A",
+        ("t_uzawa", "t_pdas"): "the Uzawa (Algorithm A) and primal–dual active set "
+                               "iterations",
+        "t_wall": "the whole parabolic run (adaptive: all passes so far, without the error "
+                  "measurement)",
     }),
-    ("Rates (`rates.md`)", True, {
-        "rate": "least-squares slope of log error against log DOFs (space-time DOFs for "
-                "Examples 4, 5) over the series",
-        "paper_rate": "the paper's rate for the same example and family",
-        "difference": "rate − paper_rate",
+    ("Rates (`rates.md`, `rates.csv`)", True, {
+        "rate": "least-squares slope of log `error` against log `dofs` (Examples 4, 5: "
+                "`spacetime_dofs`) over the series",
+        "paper_rate": "the paper's rate (paper's s and data only)",
+        "difference": "`rate` − `paper_rate` (> 0: our error falls more slowly)",
         "n_points": "runs in the fit",
-        "dof_min": "smallest DOFs in the fit",
-        "dof_max": "largest DOFs in the fit",
+        ("dof_min", "dof_max"): "smallest and largest DOFs of the fit",
     }),
-    ("Quadrature check (`ex1-quadrature-check.md`)", True, {
-        "fu_h": "(f, u_h) with the default quadrature",
-        "fu_h_raised": "(f, u_h) with every order raised (`QuadratureOptions().raised()`)",
-        "change": "fu_h_raised − fu_h",
-        "error_squared": "(f,u) − (f,u_h), the squared energy error",
-        "change_over_error_squared": "|change| / error_squared: must be far below 1",
-        "t_assembly_raised": "assembly seconds with the raised orders",
+    ("Error against wall time (`elliptic-error-vs-time.md`, `parabolic-runs.md`)", True, {
+        "common error": "the largest of the families' smallest errors",
+        ("t_adaptive [s]", "t_graded [s]", "t_uniform [s]"):
+            "wall time of the run (Examples 2, 3: with factorisation, Schur complement, "
+            "PDAS; adaptive: all steps so far) at which the family first reaches it, "
+            "log–log interpolated",
+        "fastest": "the family with the smallest such time",
+        "speed-up vs slowest": "largest of those times / smallest",
     }),
     ("Obstacle and friction (`vi-runs.md`, `ex5-free-boundary.md`)", True, {
-        "iterations_uzawa": "Uzawa iterations",
-        "iterations_pdas": "PDAS active-set steps",
-        "contact": "coarse elements in contact (λ_H < 0)",
-        "slip_plus": "coarse elements slipping with λ_H = F",
-        "slip_minus": "coarse elements slipping with λ_H = −F",
-        "stick": "coarse elements sticking (|λ_H| < F)",
-        "max_du_uzawa_pdas": "max |u_Uzawa − u_PDAS| at the nodes",
-        "max_dlambda_uzawa_pdas": "max |λ_Uzawa − λ_PDAS| over T_H",
-        "t": "time",
-        "slip+ (λ=F)": "as slip_plus, at time t",
-        "slip− (λ=−F)": "as slip_minus, at time t",
-        "slip+ outer radius": "largest centroid radius of the slip+ elements",
-        "slip− inner radius": "smallest centroid radius of the slip− elements",
+        ("iterations_uzawa", "iterations_pdas"): "Uzawa and PDAS iterations on the same "
+                                                 "discrete problem",
+        "contact": "elements of T_H with λ_H < 0 (beyond round-off)",
+        ("slip_plus", "slip_minus", "stick"): "elements of T_H with λ_H = F, λ_H = −F "
+                                              "(relative tolerance), the rest",
+        ("max_du_uzawa_pdas", "max_dlambda_uzawa_pdas"): "largest nodal difference of the "
+                                                         "Uzawa and PDAS u_h, and of their "
+                                                         "λ_H",
+        "t": "end of the time step",
+        ("slip+ (λ=F)", "slip− (λ=−F)"): "as `slip_plus`, `slip_minus` at time `t`",
+        ("slip+ outer radius", "slip− inner radius"): "largest centroid radius of the slip+ "
+                                                      "elements, smallest of the slip− ones "
+                                                      "(NaN: none)",
     }),
-    ("References (`elliptic-errors.md`, `parabolic-runs.md`, "
-     "`parabolic-reference-check.md`)", True, {
-        "reference": "how E_ref is obtained: exact, or extrapolated from a family",
-        "E_ref": "the reference energy",
-        "extrapolated": "limit E_∞ of E_∞ + C·N^(−β) through the three finest graded "
-                        "energies",
-        "reference error": "√(2|extrapolated − E|) where E is exact; else the spread "
-                           "√(2|max − min|) of the three families' extrapolations",
-        "finest error": "the smallest error of any family",
-        "spread of the extrapolations": "max − min of the three families' limits",
-        "families": "families extrapolated",
-        "adaptive rate range": "fitted adaptive rate with each family's limit as reference",
-        "graded rate range": "the same, graded",
-        "uniform rate range": "the same, uniform",
-        "ratio": "reference error / finest error",
-        "efficiency min": "smallest efficiency along the adaptive series",
-        "efficiency max": "largest efficiency along the adaptive series",
-        "max/min": "efficiency max / efficiency min",
-        "efficiency per step": "efficiency of each adaptive step",
-        "spacetime_dofs": "Σ over time steps of the free nodes: unknowns in space-time",
-        "first_contact": "first time at which λ_H < 0 somewhere (NaN: never)",
-        "reference_error_estimate": "the reference run's own error, extrapolated along the "
-                                    "graded rate (dashed line in Figures 13, 15)",
-        "exact error": "L²(0,T; Hˢ) error against the manufactured solution",
-        "error vs reference": "the same run's error measured against a reference run",
-        "rate, exact error": "rate fitted from the exact errors",
-        "rate, error vs reference": "rate fitted from the errors against the reference",
-        "finest exact error": "exact error of the finest run",
-        "reference's exact error": "exact error of the reference run itself",
+    ("Quadrature check (`ex1-quadrature-check.md`)", False, {
+        ("fu_h", "fu_h_raised"): "(f,u_h) with the default quadrature and with every order "
+                                 "raised (`QuadratureOptions().raised()`)",
+        "change": "`fu_h_raised` − `fu_h`",
+        "error_squared": "(f,u) − (f,u_h), the squared energy error",
+        "change_over_error_squared": "|`change`| / `error_squared`: must be far below 1",
+        "t_assembly_raised": "assembly seconds with the raised orders",
+    }),
+    ("Reference energies (`elliptic-errors.md`)", False, {
+        "reference": "where E_ref comes from: `exact`, `exact (pure slip)`, "
+                     "`extrapolated (<family>)`",
+        "E_ref": "the reference energy of the errors (Example 1: −½(f,u))",
+        "extrapolated": "limit E_∞ of E_∞ + C·N^(−β) through the three finest energies of "
+                        "the `reference.family` series",
+        "reference error": "E exact: √(2|`extrapolated` − E|); else the spread of the "
+                           "extrapolations",
+        "finest error": "smallest error of any family",
+        "spread of the extrapolations": "√(2|max − min|) of the families' limits",
+        "families": "families whose extrapolation exists",
+        ("adaptive rate range", "graded rate range", "uniform rate range"):
+            "smallest … largest fitted rate of the family, each family's limit in turn the "
+            "reference",
+        "ratio": "`reference error` / `finest error`",
+        ("efficiency min", "efficiency max", "max/min"): "extremes of `efficiency` along "
+                                                         "the adaptive series, their ratio",
+        "efficiency per step": "`efficiency` of every adaptive step, in order",
+    }),
+    ("Parabolic runs (`parabolic-runs.md`)", True, {
+        "first_contact": "Example 4: time of the first step with some λ_H < 0 (NaN: none)",
+        "reference_error_estimate": "the reference run's own error: finest graded error × "
+                                    "(reference's / finest graded `spacetime_dofs`)^(graded "
+                                    "rate)",
+    }),
+    ("Parabolic reference check (`parabolic-reference-check.md`)", False, {
+        "exact error": "L²(0,T; a) error against the manufactured solution, exact in time",
+        "error vs reference": "the same run's error measured like Examples 4, 5, against "
+                              "a reference run",
+        ("rate, exact error", "rate, error vs reference"): "rates of these two errors "
+                                                           "against `spacetime_dofs`",
+        "finest exact error": "smallest exact error of the family",
+        "reference's exact error": "exact error of the reference run",
     }),
     ("Stability (`stability.md`, `stability-vi.md`)", False, {
+        "case": "what was run",
+        "status": "`ok`, or `refused:` and the error the library raised",
+        "seconds": "wall seconds of the case; `pipeline-cost.md`: of the job, summed over "
+                   "the part's jobs",
         "h_min": "shortest edge",
-        "min_angle": "smallest angle of the mesh, degrees",
-        "min angle [°]": "smallest angle of the fine mesh, degrees",
-        "galerkin_ok": "(f,u_h) ≤ (f,u): the Galerkin bound holds",
-        "spd": "the free block of the stiffness matrix is symmetric positive definite",
-        "cond": "its condition number",
-        "quad_change_over_err2": "as change_over_error_squared",
-        "finite": "every number of the result is finite",
-        "energy growth": "largest increase of ½a(u^k,u^k) (+ j_H) between steps, relative "
-                         "to its largest value (0: the energy never grows)",
-        "min gap": "smallest coarse mean of u_h − χ (≥ 0 up to round-off: feasible)",
-        "complementarity": "max |λ_H · gap| (obstacle) or max ||λ_H| − F| where the mean moves "
-                           "(friction)",
-        "λ in set": "λ_H lies in Λ_H (λ ≤ 0, or |λ| ≤ F)",
-        "pdas iterations (max)": "most PDAS steps of any time step",
-        "uzawa": "Uzawa iterations, or why it stopped",
+        ("min_angle", "min angle [°]"): "smallest angle of the (fine) mesh, degrees",
+        "galerkin_ok": "(f,u_h) < (f,u), the Galerkin bound",
+        "spd": "the free block of the stiffness matrix has a positive smallest eigenvalue",
+        "cond": "its condition number λ_max / λ_min",
+        "quad_change_over_err2": "as `change_over_error_squared`",
+        "finite": "every computed value is finite",
+        "energy growth": "largest increase of the discrete energy between time steps, "
+                         "relative to its largest value",
+        "min gap": "smallest coarse mean of u_h − χ (≥ 0: feasible)",
+        "complementarity": "obstacle: max |λ_H · gap|; friction: max ||λ_H| − F| where the "
+                           "coarse mean of u_h moves",
+        "λ in set": "λ_H ≤ 0, or |λ_H| ≤ F, at every step",
+        "pdas iterations (max)": "most PDAS iterations of any step",
+        "uzawa": "most Uzawa iterations, or why Uzawa stopped",
         "max |u_pdas − u_uzawa|": "largest nodal difference of the two solvers' u_h",
-        "|u − u_free| / |u_free|": "distance to the unconstrained solution, relative",
+        "|u − u_free| / |u_free|": "max-norm distance to the unconstrained solution, relative",
         "max |λ|": "largest |λ_H|",
-        "max |coarse mean of u|": "largest |coarse mean of u_h|",
-        "contact fraction": "fraction of coarse elements in contact",
-        "max gap at t = τ": "largest coarse gap after the first step",
+        "max |coarse mean of u|": "largest |mean of u_h over an element of T_H|",
+        "contact fraction": "fraction of the elements of T_H with λ_H < 0",
+        "max gap at t = τ": "u₀ = χ: the largest coarse gap after the first step",
     }),
-    ("Cost (`pipeline-cost.md`, `benchmark-assembly.md`)", False, {
+    ("Cost (`pipeline-cost.md`, `benchmark-assembly.md`, `benchmark-assembly.csv`)", False, {
         "part": "elliptic (Examples 1–3), parabolic (Examples 4, 5), figures and tables",
         "jobs": "jobs of the part",
         "job": "a job's benchmark file under `results/benchmarks/`",
-        "max_rss_mb": "peak resident memory of the job, MB",
-        "triangles": "triangles of the mesh",
-        "pairs": "unordered element pairs: the work of a dense assembly",
+        "max_rss_mb": "peak resident memory of the job, MiB",
+        "peak_rss_mb": "peak resident memory, MiB: the largest job of the part; benchmarks: "
+                       "the case's process",
+        "level": "the mesh `disk_uniform(level)` (`vi_compressed.md`: T_H)",
+        ("triangles", "pairs"): "triangles N_T and unordered element pairs N_T(N_T − 1)/2",
         "threads": "numba threads",
-        "floor_s": "one kernel evaluation per pair, same process: a lower bound",
-        "singular_s": "touching pairs (identical, edge, vertex)",
-        "far_s": "separated pairs",
-        "exterior_s": "κ, the Ωᶜ part",
-        "assembly_s": "assembly wall seconds",
-        "pairs_per_s": "pairs / assembly_s",
-        "ratio_to_floor": "assembly_s / floor_s",
+        "floor_s": "one kernel evaluation per pair of centroids, parallel: a lower bound",
+        ("singular_s", "far_s", "exterior_s"): "seconds for the touching pairs, the "
+                                               "separated pairs, the exterior term κ",
+        "assembly_s": "assembly seconds",
+        "pairs_per_s": "`pairs` / `assembly_s`",
+        "ratio_to_floor": "`assembly_s` / `floor_s`",
     }),
-    ("Compressed operator (`benchmarks/compressed.md`, `benchmarks/vi_compressed.md`)", False, {
+    ("Compressed operator (`benchmarks/compressed.md`, `benchmarks/vi_compressed.md`)",
+     False, {
         "size": "mesh: uniform level or graded h",
-        "matvec_s": "seconds of one product op @ x",
-        "iterations": "PCG iterations to the solver tolerance",
-        "solve_s": "solve wall seconds",
-        "nbytes_mb": "memory of the compressed representation, MB",
-        "matvec_rel_diff": "‖(op − A)x‖ / ‖Ax‖ against the dense matrix, random x",
-        "energy_rel_diff": "relative difference of (f, u_h), compressed against dense",
+        "matvec_s": "seconds of one product, mean of three",
+        "iterations": "preconditioned CG iterations",
+        "solve_s": "solve seconds",
+        ("nbytes_mb", "operator_mb"): "memory of the compressed operator, MiB",
+        ("matvec_rel_diff", "energy_rel_diff"): "relative difference to the dense matrix of "
+                                                "a product with a random vector, and of "
+                                                "(f,u_h)",
         "dense_assembly_s": "dense assembly seconds on the same mesh",
-        "seconds_2_processes": "PyNucleus, assembly + solve, 2 MPI processes",
-        "seconds_1_process": "PyNucleus, one process",
-        "note": "remarks on the row",
+        ("seconds_2_processes", "seconds_1_process", "note"): "published PyNucleus "
+                                                              "timings (2 MPI processes, 1), "
+                                                              "remarks",
         "order": "Chebyshev interpolation order",
-        "operator_mb": "as nbytes_mb",
         "preconditioner_s": "setting up the preconditioner",
         "pdas_steps": "PDAS active-set steps",
-        "inner_iterations": "projected-PCG iterations over all PDAS steps",
-        "inner_per_solve": "inner_iterations / pdas_steps",
+        "inner_iterations": "PCG iterations over all PDAS steps",
+        "inner_per_solve": "PCG iterations of each PDAS step, in order",
         "dense_solve_s": "the dense PDAS solve on the same mesh",
-        "du_rel": "max |u_compressed − u_dense| / max |u_dense|",
-        "dlam_rel": "the same for λ_H",
+        ("du_rel", "dlam_rel"): "max |u − u_dense| / max |u_dense|, the same for λ_H",
     }),
     ("Pointwise (−Δ)ˢu_h (`benchmarks/pointwise.md`)", False, {
         "points": "evaluation points: the quadrature points of every element",
@@ -196,27 +215,68 @@ GROUPS = [
         "speedup": "dense_s / compressed_s",
     }),
     ("Bad input (`bad-inputs.md`)", False, {
-        "parameter": "the parameter tried",
-        "input": "the bad value",
-        "message": "the message the user gets",
+        "parameter": "the argument at fault",
+        "input": "what was passed",
+        "message": "the message the user gets (first line, shortened)",
     }),
 ]
 
 
+def _names(columns):
+    return (columns,) if isinstance(columns, str) else tuple(columns)
+
+
 def definitions():
     """{column: meaning} over all groups (a later group's repeat wins)."""
-    out = {}
-    for _, _, cols in GROUPS:
-        out.update(cols)
-    return out
+    return {name: meaning for _, _, cols in GROUPS for columns, meaning in cols.items()
+            for name in _names(columns)}
 
 
 def markdown(readme_only=False):
-    """The glossary as compact markdown: one paragraph per group."""
+    """The glossary as compact Markdown: one paragraph per group."""
     parts = []
     for title, in_readme, cols in GROUPS:
         if readme_only and not in_readme:
             continue
-        items = "; ".join(f"`{c}`: {m}" for c, m in cols.items())
+        items = "; ".join(", ".join(f"`{c}`" for c in _names(columns)) + f": {meaning}"
+                          for columns, meaning in cols.items())
         parts.append(f"**{title}.** {items}.")
     return "\n\n".join(parts)
+
+
+def _rst_inline(text):
+    """Markdown inline text as reStructuredText: `code` spans become literals; | and *
+    (substitutions and emphasis in RST) and backslashes are escaped elsewhere."""
+    out = []
+    for k, piece in enumerate(re.split(r"`([^`]+)`", text)):
+        if k % 2:
+            out.append(f"``{piece}``")
+        else:
+            out.append(re.sub(r"([\\|*])", r"\\\1", piece))
+    return "".join(out)
+
+
+def _wrap(text, width, indent):
+    """``text`` wrapped at spaces outside ``literals`` (a column name stays on one line)."""
+    keep = re.sub(r"``.*?``", lambda m: m.group(0).replace(" ", "\0"), text)
+    lines = textwrap.wrap(keep, width, initial_indent=indent, subsequent_indent=indent,
+                          break_long_words=False, break_on_hyphens=False)
+    return "\n".join(lines).replace("\0", " ")
+
+
+def rst(underline="~", width=92):
+    """The glossary as reStructuredText: one subsection per group (titles underlined
+    with ``underline``), a definition list of its columns.  The report's front page is
+    also a Jinja template, so Jinja delimiters are refused."""
+    parts = []
+    for title, _, cols in GROUPS:
+        head = _rst_inline(title)
+        items = [", ".join(f"``{c}``" for c in _names(columns)) + "\n"
+                 + _wrap(_rst_inline(meaning), width, "    ")
+                 for columns, meaning in cols.items()]
+        parts.append(f"{head}\n{underline * len(head)}\n\n" + "\n".join(items))
+    text = "\n\n".join(parts)
+    for delim in ("{{", "{%", "{#"):
+        if delim in text:
+            raise ValueError(f"the glossary contains the Jinja delimiter {delim!r}")
+    return text

@@ -3,6 +3,7 @@ left)."""
 from __future__ import annotations
 
 import json
+import logging
 import os
 import platform
 import resource
@@ -14,6 +15,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["provenance", "write_table", "save_arrays", "peak_memory_mb", "atomic_path"]
+
+log = logging.getLogger(__name__)
 
 
 def _git_commit() -> str:
@@ -80,6 +83,7 @@ class atomic_path:
     def __exit__(self, exc_type, exc, tb):
         if exc_type is None:
             os.replace(self.tmp, self.path)
+            log.info("wrote %s", self.path)
         else:
             self.tmp.unlink(missing_ok=True)
         return False

@@ -1,4 +1,6 @@
 """Matplotlib settings and panels shared by the workflow's figures."""
+from pathlib import Path
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -9,9 +11,19 @@ plt.rcParams.update({"figure.dpi": 120, "savefig.dpi": 150, "font.size": 10,
 MARKERS = {"uniform": "o", "graded": "s", "adaptive": "^"}
 
 
+# PDFs get no creation date (matplotlib writes the time of the call, or
+# SOURCE_DATE_EPOCH): the same figure drawn twice then gives the same bytes, so
+# re-running a figure rule on unchanged data leaves the committed paper-figures/
+# untouched.  PNGs hold no date; their one default entry, Software (the matplotlib
+# version), is kept.
+METADATA = {".pdf": {"CreationDate": None, "ModDate": None}}
+
+
 def save(fig, *paths):
+    """Write fig to every path (format from the suffix) without a date, then close it."""
     for path in paths:
-        fig.savefig(path, bbox_inches="tight")
+        suffix = Path(path).suffix.lower()
+        fig.savefig(path, bbox_inches="tight", metadata=METADATA.get(suffix))
     plt.close(fig)
 
 

@@ -8,6 +8,8 @@ import logging
 
 import numpy as np
 
+from .logs import log_to
+
 __all__ = ["start", "parameter_columns", "parameter_names", "parabolic_pieces"]
 
 # scalar parameters recorded in result rows (besides the quadrature_<field> columns)
@@ -16,12 +18,15 @@ PARAMETERS = ("grading", "theta", "marking", "start_level", "max_dofs", "solver"
 
 
 def start(log: str | None = None, threads: int | None = None) -> None:
-    """Log to ``log`` (the rule's log file) and give numba at most ``threads`` threads."""
+    """Log to ``log`` (the rule's log file, :func:`fracfem_workflow.logs.log_to`) and
+    give numba at most ``threads`` threads."""
     if log is not None:
-        logging.basicConfig(filename=log, level=logging.INFO)
+        log_to(log)
     if threads is not None:
         import numba
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+        logging.getLogger("fracfem_workflow").info("numba threads: %d",
+                                                   numba.get_num_threads())
 
 
 def _cell(value):
