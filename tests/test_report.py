@@ -67,3 +67,12 @@ def test_fit_rate_and_variants_in_rate_table():
     assert t.loc["printed", "paper_rate"] == pytest.approx(-0.220)
     assert t.loc["signchange", "rate"] == pytest.approx(-0.5)
     assert pd.isna(t.loc["signchange", "paper_rate"])
+
+
+def test_paper_rate_only_for_the_papers_order_and_data():
+    from fracfem_workflow.report import PAPER_RATES, paper_rate
+    assert paper_rate(1, "graded", 0.5) == PAPER_RATES[(1, "graded")]
+    assert paper_rate(1, "graded", 0.3) is None              # another s: the paper has none
+    assert paper_rate(3, "uniform", 0.6, "printed") == PAPER_RATES[(3, "uniform")]
+    assert paper_rate(3, "uniform", 0.6, "signchange") is None
+    assert paper_rate(4, "adaptive", 0.5, "u2") == PAPER_RATES[(4, "adaptive")]

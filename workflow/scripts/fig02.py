@@ -3,7 +3,7 @@ import pandas as pd
 
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import MARKERS, plt, save
-from fracfem_workflow.report import PAPER_RATES, fit_rate
+from fracfem_workflow.report import fit_rate, paper_rate
 
 
 def main(rows, s, png, pdf):
@@ -12,8 +12,9 @@ def main(rows, s, png, pdf):
     for fam, g in df.groupby("family"):
         g = g.sort_values("dofs")
         rate = fit_rate(g.dofs, g.error)
-        ax.loglog(g.dofs, g.error, marker=MARKERS[fam], label=f"{fam}: rate {rate:.3f} "
-                  f"(paper {PAPER_RATES[(1, fam)]:.3f})")
+        paper = paper_rate(1, fam, s)
+        label = f"{fam}: rate {rate:.3f}" + (f" (paper {paper:.3f})" if paper is not None else "")
+        ax.loglog(g.dofs, g.error, marker=MARKERS[fam], label=label)
     ax.set_xlabel("degrees of freedom")
     ax.set_ylabel(r"$\|u-u_h\|_a$")
     ax.set_title(f"Example 1, s = {s:g}")

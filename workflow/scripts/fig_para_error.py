@@ -3,7 +3,7 @@ import pandas as pd
 
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import MARKERS, plt, save
-from fracfem_workflow.report import PAPER_RATES, fit_rate
+from fracfem_workflow.report import fit_rate, paper_rate
 
 
 def main(csvs, png, pdf):
@@ -14,8 +14,9 @@ def main(csvs, png, pdf):
         for fam, g in df.groupby("family"):
             g = g.sort_values("spacetime_dofs")
             rate = fit_rate(g.spacetime_dofs, g.error)
-            ax.loglog(g.spacetime_dofs, g.error, marker=MARKERS[fam],
-                      label=f"{fam}: {rate:.3f} (paper {PAPER_RATES[(ex, fam)]:.3f})")
+            paper = paper_rate(ex, fam, g.s.iloc[0], g.variant.fillna("").iloc[0])
+            label = f"{fam}: {rate:.3f}" + (f" (paper {paper:.3f})" if paper is not None else "")
+            ax.loglog(g.spacetime_dofs, g.error, marker=MARKERS[fam], label=label)
             if "eta" in g and g.eta.notna().any():
                 ax.loglog(g.spacetime_dofs, g.eta, ls=":", marker=".", color="k",
                           label=f"estimator ({fam}): {fit_rate(g.spacetime_dofs, g.eta):.3f}")

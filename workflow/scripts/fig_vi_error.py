@@ -3,7 +3,7 @@ import pandas as pd
 
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import MARKERS, plt, save
-from fracfem_workflow.report import PAPER_RATES, fit_rate
+from fracfem_workflow.report import fit_rate, paper_rate
 
 
 def panel(ax, df):
@@ -11,7 +11,7 @@ def panel(ax, df):
     var = df.variant.fillna("").iloc[0]
     for fam, g in df.groupby("family"):
         g = g.sort_values("dofs")
-        paper = PAPER_RATES.get((ex, fam)) if var in ("", "printed") else None
+        paper = paper_rate(ex, fam, g.s.iloc[0], var)
         label = f"{fam}: {fit_rate(g.dofs, g.error):.3f}"
         label += f" (paper {paper:.3f})" if paper is not None else ""
         ax.loglog(g.dofs, g.error, marker=MARKERS[fam], label=label)

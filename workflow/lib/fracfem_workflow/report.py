@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["PAPER_RATES", "PAPER_S", "fit_rate", "rate_table", "extrapolate_energy",
+__all__ = ["PAPER_RATES", "PAPER_S", "paper_rate", "fit_rate", "rate_table", "extrapolate_energy",
            "energy_error", "time_to_reach"]
 
 # error in H^s vs DOFs (parabolic: vs space-time DOFs), paper Section 8
@@ -19,6 +19,14 @@ PAPER_S = {1: 0.5, 2: 0.5, 3: 0.6, 4: 0.5, 5: 0.6}
 # data sets the paper's rates refer to: Example 3 as printed (f = 1), Example 4 with
 # either initial value (the paper gives one set of rates for both)
 PAPER_VARIANTS = ("", "printed", "u1", "u2")
+
+
+def paper_rate(example, family, s, variant=""):
+    """The paper's rate for this example and family, or None where the paper has none
+    (an order s other than the paper's, or a data set the paper did not run)."""
+    if not np.isclose(float(s), PAPER_S[int(example)]) or str(variant) not in PAPER_VARIANTS:
+        return None
+    return PAPER_RATES.get((int(example), family))
 
 
 def fit_rate(dofs, errors) -> float:
@@ -42,9 +50,7 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
     df["variant"] = df["variant"].fillna("").astype(str)
     rows = []
     for (ex, var, fam, s), g in df.groupby(["example", "variant", "family", "s"], sort=True):
-        paper = None
-        if np.isclose(s, PAPER_S[int(ex)]) and var in PAPER_VARIANTS:
-            paper = PAPER_RATES.get((int(ex), fam))
+        paper = paper_rate(ex, fam, s, var)
         rows.append({"example": int(ex), "variant": var, "family": fam, "s": float(s),
                      "rate": round(fit_rate(g[x], g[y]), 3),
                      "paper_rate": paper, "n_points": len(g),
