@@ -607,6 +607,29 @@ def _unique_sorted(bp, nb):  # pragma: no cover
 
 
 @njit(cache=True)
+def _ray_breakpoints(X0, Y0, yx, yy, best, pts, npts):  # pragma: no cover
+    """Sorted distinct parameters θ in [0, 1] of the segment Y0 + θ(yx, yy) where the
+    ray from X0 passes through one of the points pts[:npts], or where the segment
+    comes nearest to one of them (best = |(yx, yy)|²); 0 and 1 included."""
+    cand = np.empty(2 + 2 * npts)
+    cand[0], cand[1] = 0.0, 1.0
+    nb = 2
+    for j in range(npts):
+        vx, vy = pts[j, 0] - X0[0], pts[j, 1] - X0[1]
+        den = vx * yy - vy * yx
+        if den != 0.0:
+            th = ((Y0[0] - X0[0]) * vy - (Y0[1] - X0[1]) * vx) / den
+            if 0.0 < th < 1.0:
+                cand[nb] = th
+                nb += 1
+        th = ((pts[j, 0] - Y0[0]) * yx + (pts[j, 1] - Y0[1]) * yy) / best
+        if 0.0 < th < 1.0:
+            cand[nb] = th
+            nb += 1
+    return _unique_sorted(cand, nb)
+
+
+@njit(cache=True)
 def _separated_block(PT, PT2, s, gx, gw, q, out):  # pragma: no cover
     """6 × 6 matrix ∫_T∫_T'(φ_a(x)−φ_a(y))(φ_b(x)−φ_b(y))|x−y|^(−2−2s) of a
     separated pair (nodes of T, then of T'), for T, T' close compared to
@@ -638,22 +661,7 @@ def _separated_block(PT, PT2, s, gx, gw, q, out):  # pragma: no cover
     ly = np.sqrt(best)
     det = abs((Y0[0] - X0[0]) * yy - (Y0[1] - X0[1]) * yx)      # 2|T|
     # θ breakpoints: rays through the vertices of T', ray ends nearest to them
-    cand = np.empty(8)
-    cand[0], cand[1] = 0.0, 1.0
-    nb = 2
-    for j in range(3):
-        vx, vy = PT2[j, 0] - X0[0], PT2[j, 1] - X0[1]
-        den = vx * yy - vy * yx
-        if den != 0.0:
-            th = ((Y0[0] - X0[0]) * vy - (Y0[1] - X0[1]) * vx) / den
-            if 0.0 < th < 1.0:
-                cand[nb] = th
-                nb += 1
-        th = ((PT2[j, 0] - Y0[0]) * yx + (PT2[j, 1] - Y0[1]) * yy) / best
-        if 0.0 < th < 1.0:
-            cand[nb] = th
-            nb += 1
-    bps = _unique_sorted(cand, nb)
+    bps = _ray_breakpoints(X0, Y0, yx, yy, best, PT2, 3)
     scs = np.empty(bps.shape[0])
     for i in range(bps.shape[0]):
         ex, ey = Y0[0] + bps[i] * yx, Y0[1] + bps[i] * yy
@@ -804,22 +812,7 @@ def _near_boundary_rule(PT, bv, nbv, gx, gw, q):  # pragma: no cover
     det = abs((Y0[0] - X0[0]) * yy - (Y0[1] - X0[1]) * yx)
     ly = np.sqrt(best)
     # θ: rays through / ends nearest to the boundary vertices
-    cand = np.empty(2 + 2 * nbv)
-    cand[0], cand[1] = 0.0, 1.0
-    nb = 2
-    for j in range(nbv):
-        vx, vy = bv[j, 0] - X0[0], bv[j, 1] - X0[1]
-        den = vx * yy - vy * yx
-        if den != 0.0:
-            th = ((Y0[0] - X0[0]) * vy - (Y0[1] - X0[1]) * vx) / den
-            if 0.0 < th < 1.0:
-                cand[nb] = th
-                nb += 1
-        th = ((bv[j, 0] - Y0[0]) * yx + (bv[j, 1] - Y0[1]) * yy) / best
-        if 0.0 < th < 1.0:
-            cand[nb] = th
-            nb += 1
-    bps = _unique_sorted(cand, nb)
+    bps = _ray_breakpoints(X0, Y0, yx, yy, best, bv, nbv)
     scs = np.empty(bps.shape[0])
     for i in range(bps.shape[0]):
         ex, ey = Y0[0] + bps[i] * yx, Y0[1] + bps[i] * yy
