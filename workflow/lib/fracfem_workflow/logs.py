@@ -47,13 +47,7 @@ def log_to(path, level: int = logging.INFO) -> logging.Handler:
     for old in [h for h in root.handlers if isinstance(h, _JobLog)]:
         root.removeHandler(old)
         old.close()
-    handler = _JobLog(path, mode="w", encoding="utf-8")
-    handler.setFormatter(logging.Formatter(FORMAT, DATEFMT))
-    root.addHandler(handler)
-    root.setLevel(level)
-    for name in QUIET:
-        logging.getLogger(name).setLevel(max(level, logging.WARNING))
-    logging.captureWarnings(True)
+    handler = _attach(_JobLog(path, mode="w", encoding="utf-8"), level)
     _log_uncaught()
     if _state["start"] is None:
         _state["start"] = time.perf_counter()
@@ -71,8 +65,13 @@ def _script_name() -> str:
 def log_to_stderr(level: int = logging.INFO) -> logging.Handler:
     """The same lines on standard error, for a script run by a ``shell:`` rule whose
     output is redirected to its log (``> {log} 2>&1``); no exit line."""
+    return _attach(logging.StreamHandler(sys.stderr), level)
+
+
+def _attach(handler: logging.Handler, level: int) -> logging.Handler:
+    """Format `handler`, add it to the root logger at `level`, quiet :data:`QUIET`
+    and route warnings through logging."""
     root = logging.getLogger()
-    handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter(FORMAT, DATEFMT))
     root.addHandler(handler)
     root.setLevel(level)
