@@ -6,13 +6,13 @@ An additive multilevel (BPX-type) preconditioner on auxiliary uniform grids:
 
 P_l the interpolation at the free nodes of the mesh of the bilinear hats ψ of
 a square grid of spacing H_l, each multiplied by the ramp min(1, dist(x, ∂Ω)/H_l),
-w = ``coarse_weight``.  The ramp puts every coarse function in H̃^s(Ω): a hat
-merely cut off at ∂Ω jumps there, and for s > 1/2 the energy of that jump grows
-like h^(1−2s) as the mesh is refined; the jump alone made the condition number
-grow like h^(1−2s) (by √2 per uniform refinement at s = 3/4).  Hats centred
-outside Ω take part too (ramped), so that every level covers Ω up to ∂Ω.  Only
-hats the mesh resolves (every element at the free nodes in their support has
-diameter ≤ H_l) are used.
+w = ``coarse_weight`` (by default growing with the order).  The ramp puts every
+coarse function in H̃^s(Ω): a hat merely cut off at ∂Ω jumps there, and for
+s > 1/2 the energy of that jump grows like h^(1−2s) as the mesh is refined; the
+jump alone made the condition number grow like h^(1−2s) (by √2 per uniform
+refinement at s = 3/4).  Hats centred outside Ω take part too (ramped), so that
+every level covers Ω up to ∂Ω.  Only hats the mesh resolves (every element at
+the free nodes in their support has diameter ≤ H_l) are used.
 
 The energies follow from one measured value per level, the central hat's
 a(ψ_c, ψ_c), carried to the other hats by the interpolation estimate
@@ -40,10 +40,14 @@ from .assembly import _boundary_edges, mesh_arrays
 log = logging.getLogger(__name__)
 
 __all__ = ["MultilevelPreconditioner", "multilevel_preconditioner"]
-# PCG iterations to 1e-10 on disk_uniform(6) s = 0.75 / 0.25, disk_graded_aniso(0.025)
-# and disk_graded(0.14), s = 0.75: 20 / 17 / 30 / 19 (weight 0.25),
-# 19 / 20 / 31 / 18 (0.35), 19 / 23 / 34 / 20 (0.5), 26 / 32 / 46 / 27 (1)
-COARSE_WEIGHT = 0.25
+# the weight of the grid levels against the diagonal, w = 0.15 + 0.2 σ: at small σ
+# the diagonal nearly suffices (Jacobi alone takes 14–18 PCG iterations at
+# s = 0.25) and the overlapping grids mainly raise the largest eigenvalue.
+# PCG iterations to 1e-10 on disk_uniform(6), disk_graded(0.14),
+# disk_graded_aniso(0.025): s = 0.25, w = 0.2 / 0.25 / 0.35: 16 / 17 / 20,
+# 16 / 17 / –, 19 / 20 / –; s = 0.75, w = 0.25 / 0.3 / 0.35 / 0.5: 20 / 19 / 19 / 19,
+# 19 / 18 / 18 / 20, 30 / 30 / 31 / 34
+COARSE_WEIGHT = (0.15, 0.2)
 COARSEST = 1      # the coarsest grid: spacing half the bounding box
 NEAREST_EDGES = 8  # boundary edges (by midpoint) searched for dist(x, ∂Ω)
 # hats of which the ramp leaves less L² mass than this fraction of the central
@@ -103,15 +107,17 @@ def _grid_prolongation(x, origin, H, n):
 
 
 def multilevel_preconditioner(mesh, op, *, coarsest: int = COARSEST,
-                              coarse_weight: float = COARSE_WEIGHT) -> MultilevelPreconditioner:
+                              coarse_weight: float | None = None) -> MultilevelPreconditioner:
     """Preconditioner for ``op`` (free nodes in ``mesh.interior_nodes()``
     order; anything with ``@`` and ``diagonal()``).
 
     coarsest: the coarsest grid has spacing (bounding box)/2**coarsest, an
     integer in [1, 20]; coarse_weight damps the grid levels against the
-    diagonal (the supports of the hats of successive levels overlap), in (0, 1].
+    diagonal (the supports of the hats of successive levels overlap), in (0, 1];
+    default 0.15 + 0.2 σ, σ the measured order.
     """
-    if not (np.isfinite(coarse_weight) and 0.0 < coarse_weight <= 1.0):
+    if coarse_weight is not None and not (np.isfinite(coarse_weight)
+                                          and 0.0 < coarse_weight <= 1.0):
         raise ValueError(f"coarse_weight={coarse_weight!r} must be in (0, 1]")
     if not (isinstance(coarsest, (int, np.integer)) and 1 <= coarsest <= 20):
         raise ValueError(f"coarsest={coarsest!r} must be an integer in [1, 20]")
@@ -162,6 +168,8 @@ def multilevel_preconditioner(mesh, op, *, coarsest: int = COARSEST,
             levels.append((H, Ps[-1].shape[1], energy))
         level += 1
     sigma = _measured_order([lv[0] for lv in levels], central)
+    if coarse_weight is None:
+        coarse_weight = COARSE_WEIGHT[0] + COARSE_WEIGHT[1] * sigma
     energies = []
     for (m, k), (c, energy, _) in zip(shapes, central):
         q = m ** (1.0 - sigma) * k ** sigma
