@@ -35,8 +35,9 @@ def _as_list(value, name):
 
 for _key in ("s_values",):
     config[_key] = _as_list(config[_key], _key)
-for _key in ("uniform_levels", "graded_h"):
-    config["example1"][_key] = _as_list(config["example1"][_key], f"example1.{_key}")
+for _key in ("uniform_levels", "graded_h", "graded_sr_h"):
+    if _key in config["example1"]:
+        config["example1"][_key] = _as_list(config["example1"][_key], f"example1.{_key}")
 config["benchmark"]["levels"] = _as_list(config["benchmark"]["levels"], "benchmark.levels")
 
 validate(config, "../schemas/config.schema.yaml")
@@ -85,9 +86,16 @@ def path(pattern, **wildcards):
 
 
 def series(block):
-    """(family, tag) of every run of the uniform and graded series of a config block."""
+    """(family, tag) of every run of the uniform, graded (anisotropic, the paper's) and
+    graded-sr (shape-regular) series of a config block."""
     return ([("uniform", series_tag("uniform", lv)) for lv in block["uniform_levels"]]
-            + [("graded", series_tag("graded", h)) for h in block["graded_h"]])
+            + [("graded", series_tag("graded", h)) for h in block["graded_h"]]
+            + [("graded-sr", series_tag("graded-sr", h)) for h in block.get("graded_sr_h", [])])
+
+
+def families(block):
+    """The mesh families a config block runs, in the order of series()."""
+    return list(dict.fromkeys(fam for fam, _ in series(block)))
 
 
 def last_tag(block, family):
@@ -177,6 +185,6 @@ def para_error_tables(wildcards):
 
 
 wildcard_constraints:
-    family="uniform|graded",
+    family="uniform|graded|graded-sr",
     s=r"[0-9.]+",
-    tag=r"L[0-9]+|h[0-9.e-]+",
+    tag=r"L[0-9]+|[hr][0-9.e-]+",

@@ -11,7 +11,7 @@ rule para_solve:
         f"{RES}/benchmarks/para/{{problem}}_{{family}}_{{tag}}.tsv"
     wildcard_constraints:
         problem="|".join(PARA_PROBLEMS),
-        family="uniform|graded|reference",
+        family="uniform|graded|graded-sr|reference",
     params:
         example=para_example,
         data=para_data,

@@ -12,7 +12,7 @@ rule vi_solve:
         f"{RES}/benchmarks/vi/{{problem}}_{{family}}_{{tag}}.tsv"
     wildcard_constraints:
         problem=r"ex2|ex3-\w+|thin-obstacle|thin-friction",
-        family="uniform|graded|demo",
+        family="uniform|graded|graded-sr|demo",
     params:
         example=vi_example,
         data=vi_data,

@@ -3,7 +3,7 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import MARKERS, plt, save
+from fracfem_workflow.plotstyle import FAMILY_LABELS, MARKERS, plt, save
 from fracfem_workflow.report import fit_rate
 
 
@@ -15,14 +15,14 @@ def main(table, time_png, orders_png, errors_md):
     with atomic_path(errors_md) as tmp:
         tmp.write_text(summary.to_markdown(index=False, floatfmt=".4g") + "\n")
     colours = {s: f"C{i}" for i, s in enumerate(sorted(df.s.unique()))}
-    dashes = {"uniform": "--", "graded": "-", "adaptive": ":"}
+    dashes = {"uniform": "--", "graded": "-", "graded-sr": "-.", "adaptive": ":"}
     fig, ax = plt.subplots(figsize=(5.5, 4))
     for (s, fam), g in df.groupby(["s", "family"]):
         g = g.sort_values("dofs")
         # adaptive: the cumulative time of all steps up to this one
         t = g.t_cumulative if fam == "adaptive" else g.t_total
         ax.loglog(t, g.error, marker=MARKERS[fam], color=colours[s], ls=dashes[fam],
-                  label=f"s={s:g}, {fam}")
+                  label=f"s = {s:g}, {FAMILY_LABELS[fam]}")
     ax.set_xlabel("wall time [s]: mesh + assembly + solve (adaptive: all steps so far)")
     ax.set_ylabel(r"$\|u-u_h\|_a$")
     ax.set_title("Example 1: error against run time")
@@ -33,7 +33,7 @@ def main(table, time_png, orders_png, errors_md):
     for (s, fam), g in df.groupby(["s", "family"]):
         g = g.sort_values("dofs")
         ax.loglog(g.dofs, g.error, marker=MARKERS[fam], color=colours[s], ls=dashes[fam],
-                  label=f"s={s:g}, {fam}: {fit_rate(g.dofs, g.error):.3f}")
+                  label=f"s = {s:g}, {FAMILY_LABELS[fam]}: {fit_rate(g.dofs, g.error):.3f}")
     ax.set_xlabel("degrees of freedom")
     ax.set_ylabel(r"$\|u-u_h\|_a$")
     ax.set_title("Example 1 for several s (fitted rates)")

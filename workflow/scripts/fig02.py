@@ -1,8 +1,9 @@
-"""Figure 2: Example 1 energy error vs DOFs, uniform and 2-graded, fitted rates."""
+"""Figure 2: Example 1 energy error vs DOFs, uniform and 2-graded (anisotropic, and
+shape-regular for comparison), fitted rates."""
 import pandas as pd
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import MARKERS, plt, save
+from fracfem_workflow.plotstyle import FAMILY_LABELS, MARKERS, plt, save
 from fracfem_workflow.report import fit_rate, paper_rate
 
 
@@ -13,7 +14,7 @@ def main(rows, s, png, pdf):
         g = g.sort_values("dofs")
         rate = fit_rate(g.dofs, g.error)
         paper = paper_rate(1, fam, s)
-        label = f"{fam}: rate {rate:.3f}" + (f" (paper {paper:.3f})" if paper is not None else "")
+        label = f"{FAMILY_LABELS[fam]}: rate {rate:.3f}" + (f" (paper {paper:.3f})" if paper is not None else "")
         ax.loglog(g.dofs, g.error, marker=MARKERS[fam], label=label)
     ax.set_xlabel("degrees of freedom")
     ax.set_ylabel(r"$\|u-u_h\|_a$")

@@ -2,7 +2,7 @@
 import pandas as pd
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import MARKERS, plt, save
+from fracfem_workflow.plotstyle import FAMILY_LABELS, plt, rate_series, save
 from fracfem_workflow.report import fit_rate, paper_rate
 
 
@@ -13,13 +13,11 @@ def main(csvs, png, pdf):
         ex = int(df.example.iloc[0])
         for fam, g in df.groupby("family"):
             g = g.sort_values("spacetime_dofs")
-            rate = fit_rate(g.spacetime_dofs, g.error)
-            paper = paper_rate(ex, fam, g.s.iloc[0], g.variant.fillna("").iloc[0])
-            label = f"{fam}: {rate:.3f}" + (f" (paper {paper:.3f})" if paper is not None else "")
-            ax.loglog(g.spacetime_dofs, g.error, marker=MARKERS[fam], label=label)
+            rate_series(ax, g.spacetime_dofs, g.error, fam, g.reference_error.max(),
+                        paper_rate(ex, fam, g.s.iloc[0], g.variant.fillna("").iloc[0]))
             if "eta" in g and g.eta.notna().any():
                 ax.loglog(g.spacetime_dofs, g.eta, ls=":", marker=".", color="k",
-                          label=f"estimator ({fam}): {fit_rate(g.spacetime_dofs, g.eta):.3f}")
+                          label=f"estimator η ({FAMILY_LABELS[fam]}): {fit_rate(g.spacetime_dofs, g.eta):.3f}")
         ax.axhline(df.reference_error_estimate.iloc[0], color="grey", lw=0.7, ls="--",
                    label="reference's own error (estimate)")
         var = df.variant.fillna("").iloc[0]

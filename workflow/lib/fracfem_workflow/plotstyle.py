@@ -8,7 +8,29 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 plt.rcParams.update({"figure.dpi": 120, "savefig.dpi": 150, "font.size": 10,
                      "axes.grid": True, "grid.alpha": 0.3})
-MARKERS = {"uniform": "o", "graded": "s", "adaptive": "^"}
+MARKERS = {"uniform": "o", "graded": "s", "graded-sr": "D", "adaptive": "^"}
+# how a legend names a mesh family (the tables keep the short names)
+FAMILY_LABELS = {"uniform": "uniform", "graded": "2-graded (anisotropic)",
+                 "graded-sr": "2-graded, shape-regular", "adaptive": "adaptive"}
+
+
+def rate_series(ax, x, y, family, reference_error=0.0, paper=None):
+    """Plot one family's errors; the fitted rate (runs passing report.fit_mask only) and the
+    paper's go in the legend, runs left out of the fit are drawn hollow.  Returns the rate."""
+    import numpy as np
+
+    from .report import fit_mask, fit_rate
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    keep = fit_mask(y, reference_error)
+    rate = fit_rate(x[keep], y[keep]) if keep.sum() >= 2 else float("nan")
+    label = (f"{FAMILY_LABELS[family]}: {rate:.3f}" if np.isfinite(rate)
+             else f"{FAMILY_LABELS[family]}: no rate (< 2 runs above 3× reference error)")
+    label += f" (paper {paper:.3f})" if paper is not None else ""
+    (line,) = ax.loglog(x, y, marker=MARKERS[family], label=label)
+    if not keep.all():
+        ax.loglog(x[~keep], y[~keep], ls="none", marker=MARKERS[family], mfc="white",
+                  color=line.get_color(), zorder=line.get_zorder() + 1)
+    return rate
 
 
 # PDFs get no creation date (matplotlib writes the time of the call, or
