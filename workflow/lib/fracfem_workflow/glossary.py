@@ -60,10 +60,16 @@ GROUPS = [
     }),
     ("Rates (`rates.md`, `rates.csv`)", True, {
         "rate": "least-squares slope of log `error` against log `dofs` (Examples 4, 5: "
-                "`spacetime_dofs`) over the series",
+                "`spacetime_dofs`) over the runs whose error exceeds 3× `reference_error` "
+                "(all runs when the reference is exact); NaN when fewer than two do",
         "paper_rate": "the paper's rate (paper's s and data only)",
         "difference": "`rate` − `paper_rate` (> 0: our error falls more slowly)",
         "n_points": "runs in the fit",
+        "n_excluded": "runs left out: error ≤ 3× `reference_error`",
+        "reference_error": "the reference's own error: 0 if exact; Examples 2, 3 the spread "
+                           "of the families' extrapolated limits; Examples 4, 5 "
+                           "`reference_error_estimate`",
+        "smallest_error": "smallest error of the series",
         ("dof_min", "dof_max"): "smallest and largest DOFs of the fit",
     }),
     ("Error against wall time (`elliptic-error-vs-time.md`, `parabolic-runs.md`)", True, {
