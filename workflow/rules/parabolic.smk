@@ -155,6 +155,7 @@ rule fig14:
     params:
         times=[0.0, 0.2, 0.4, 0.8],
         F=PARA["examples"]["ex5"]["F"],
+        tol=SOLVER["tol"],
     log:
         f"{RES}/logs/fig14.log",
     benchmark:

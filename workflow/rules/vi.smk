@@ -126,7 +126,8 @@ rule fig08:
         ),
         pdf=f"{OUT}/fig08-ex3-solution-multiplier.pdf",
     params:
-        title=f"Example 3 ({EX3['figure8_variant']} data)",
+        problem=f"ex3-{EX3['figure8_variant']}",
+        F=EX3["variants"][EX3["figure8_variant"]]["F"],
     log:
         f"{RES}/logs/fig08.log",
     benchmark:

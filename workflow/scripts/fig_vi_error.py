@@ -2,7 +2,8 @@
 import pandas as pd
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import plt, rate_series, save
+from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, plt, problem_title, rate_series,
+                                        save)
 from fracfem_workflow.report import fit_rate, paper_rate
 
 
@@ -15,23 +16,23 @@ def panel(ax, df):
                     paper_rate(ex, fam, g.s.iloc[0], var))
         if fam == "adaptive":
             ax.loglog(g.dofs, g.eta, ls=":", marker=".", color="k",
-                      label=f"estimator η (adaptive): {fit_rate(g.dofs, g.eta):.3f}")
+                      label=rf"estimator $\eta$ (adaptive): {fit_rate(g.dofs, g.eta):.3f}")
     ref_err = df.reference_error.max()
     if ref_err > 0:
         ax.axhline(ref_err, color="grey", lw=0.7, ls="--",
                    label="reference's own error (spread of the families' limits)")
     ref = "exact" if ex == 3 and var == "printed" else "extrapolated"
-    ax.set_title(f"Example {ex}{' (' + var + ')' if var else ''}, s = "
-                 f"{df.s.iloc[0]:g}; reference energy {ref}", fontsize=9)
-    ax.set_xlabel("degrees of freedom")
-    ax.legend(fontsize=7)
+    ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$; "
+                 f"reference energy {ref}")
+    ax.set_xlabel(DOFS)
+    ax.legend()
 
 
 def main(csvs, png, pdf):
     fig, axes = plt.subplots(1, len(csvs), figsize=(5.5 * len(csvs), 4), squeeze=False)
     for ax, csv in zip(axes[0], csvs):
         panel(ax, pd.read_csv(csv))
-    axes[0][0].set_ylabel(r"$\sqrt{2|E(u_h)-E_{ref}|}$")   # one label: panels share the measure
+    axes[0][0].set_ylabel(ERROR_LABELS["vi"])   # one label: the panels share the measure
     save(fig, png, pdf)
 
 
