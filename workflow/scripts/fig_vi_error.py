@@ -13,7 +13,8 @@ def panel(ax, df):
     for fam, g in df.groupby("family"):
         g = g.sort_values("dofs")
         rate_series(ax, g.dofs, g.error, fam, g.reference_error.max(),
-                    paper_rate(ex, fam, g.s.iloc[0], var))
+                    paper_rate(ex, fam, g.s.iloc[0], var),
+                    exclude=g.below_reference.astype(bool))   # E_h < E_ref: no valid error
         if fam == "adaptive":
             ax.loglog(g.dofs, g.eta, ls=":", marker=".", color="k",
                       label=rf"estimator $\eta$ (adaptive): {fit_rate(g.dofs, g.eta):.3f}")
