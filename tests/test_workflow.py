@@ -30,9 +30,12 @@ def test_one_figure_runs_only_its_jobs(tmp_path):
     _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
                       "--", f"{tmp_path}/o/fig02-ex1-error.png")
     jobs = job_counts(text)
-    # Figure 2: the s = 0.5 uniform, graded and adaptive series, nothing else
+    # Figure 2: the s = 0.5 uniform, graded, graded-sr and adaptive series, nothing else
+    import yaml
+    ex1 = yaml.safe_load((ROOT / "config.yaml").read_text())["example1"]
+    runs = len(ex1["uniform_levels"]) + len(ex1["graded_h"]) + len(ex1["graded_sr_h"])
     assert set(jobs) == {"ex1_solve", "ex1_adaptive", "fig02"}
-    assert jobs["ex1_solve"] == 10 and jobs["ex1_adaptive"] == 1
+    assert jobs["ex1_solve"] == runs == 14 and jobs["ex1_adaptive"] == 1
     assert "s0.25" not in text and "benchmark_assembly" not in text
 
 
