@@ -90,3 +90,13 @@ def test_every_paper_figure_is_a_default_target(tmp_path):
     _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o")
     for num in range(1, 16):
         assert re.search(rf"{tmp_path}/o/fig{num:02d}-[\w-]+\.png", text), f"Figure {num}"
+
+
+def test_reference_family_needs_three_meshes(tmp_path):
+    """The Example 2/3 reference is extrapolated through three runs of one family: a config
+    with fewer is refused before any job, naming the key."""
+    (tmp_path / "short.yaml").write_text("example2:\n  graded_sr_h: [0.8, 0.56]\n"
+                                         "reference:\n  family: graded-sr\n")
+    code, text = dry_run("--configfile", str(tmp_path / "short.yaml"), ok=False)
+    assert code != 0
+    assert "example2.graded_sr_h=[0.8, 0.56] must list at least 3 meshes" in text

@@ -42,6 +42,16 @@ config["benchmark"]["levels"] = _as_list(config["benchmark"]["levels"], "benchma
 
 validate(config, "../schemas/config.schema.yaml")
 
+# the reference energy of Examples 2 and 3 is extrapolated through three runs of one family
+_REF_KEY = {"uniform": "uniform_levels", "graded": "graded_h", "graded-sr": "graded_sr_h"}[
+    config["reference"]["family"]]
+for _block in ("example2", "example3"):
+    if len(config[_block].get(_REF_KEY, [])) < 3:
+        raise ValueError(f"config {_block}.{_REF_KEY}={config[_block].get(_REF_KEY, [])!r} must "
+                         f"list at least 3 meshes: reference.family="
+                         f"{config['reference']['family']!r} extrapolates through its three "
+                         "finest energies")
+
 
 def _science(cfg):
     return {k: v for k, v in cfg.items() if k not in ("output_root", "results_dir")}
