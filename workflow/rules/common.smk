@@ -42,10 +42,11 @@ config["benchmark"]["levels"] = _as_list(config["benchmark"]["levels"], "benchma
 
 validate(config, "../schemas/config.schema.yaml")
 
-# the reference energy of Examples 2 and 3 is extrapolated through three runs of one family
+# the reference energy of Examples 2 and 3 is extrapolated through three runs of one family,
+# and the same extrapolation is checked against Example 1's exact energy
 _REF_KEY = {"uniform": "uniform_levels", "graded": "graded_h", "graded-sr": "graded_sr_h"}[
     config["reference"]["family"]]
-for _block in ("example2", "example3"):
+for _block in ("example1", "example2", "example3"):   # Example 1: the extrapolation check
     if len(config[_block].get(_REF_KEY, [])) < 3:
         raise ValueError(f"config {_block}.{_REF_KEY}={config[_block].get(_REF_KEY, [])!r} must "
                          f"list at least 3 meshes: reference.family="
