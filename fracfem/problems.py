@@ -264,6 +264,7 @@ def example(name: str, **parameters):
 
 # family of a series -> the letter of its tags
 SERIES_FAMILIES = {"uniform": "L", "graded": "h", "graded-sr": "r"}
+_FAMILY_OF_LETTER = {letter: family for family, letter in SERIES_FAMILIES.items()}
 _TAG = re.compile(r"^(?:L(?P<level>[0-9]+)|(?P<letter>[hr])(?P<h>[0-9]*\.?[0-9]+(?:e-?[0-9]+)?))$")
 
 
@@ -294,7 +295,7 @@ def parse_series_tag(tag: str) -> tuple[str, float | int]:
                          "anisotropic graded) or r<h> (e.g. r0.35, shape-regular graded)")
     if m["level"] is not None:
         return "uniform", int(m["level"])
-    return ("graded" if m["letter"] == "h" else "graded-sr"), float(m["h"])
+    return _FAMILY_OF_LETTER[m["letter"]], float(m["h"])
 
 
 def _graded_mesh(family, h, grading):

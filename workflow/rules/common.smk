@@ -35,7 +35,9 @@ def _as_list(value, name):
 
 for _key in ("s_values",):
     config[_key] = _as_list(config[_key], _key)
-for _key in ("uniform_levels", "graded_h", "graded_sr_h"):
+# the config key listing the members of each mesh family's series
+SERIES_KEYS = {"uniform": "uniform_levels", "graded": "graded_h", "graded-sr": "graded_sr_h"}
+for _key in SERIES_KEYS.values():
     if _key in config["example1"]:
         config["example1"][_key] = _as_list(config["example1"][_key], f"example1.{_key}")
 config["benchmark"]["levels"] = _as_list(config["benchmark"]["levels"], "benchmark.levels")
@@ -44,8 +46,7 @@ validate(config, "../schemas/config.schema.yaml")
 
 # the reference energy of Examples 2 and 3 is extrapolated through three runs of one family,
 # and the same extrapolation is checked against Example 1's exact energy
-_REF_KEY = {"uniform": "uniform_levels", "graded": "graded_h", "graded-sr": "graded_sr_h"}[
-    config["reference"]["family"]]
+_REF_KEY = SERIES_KEYS[config["reference"]["family"]]
 for _block in ("example1", "example2", "example3"):   # Example 1: the extrapolation check
     if len(config[_block].get(_REF_KEY, [])) < 3:
         raise ValueError(f"config {_block}.{_REF_KEY}={config[_block].get(_REF_KEY, [])!r} must "
@@ -99,9 +100,8 @@ def path(pattern, **wildcards):
 def series(block):
     """(family, tag) of every run of the uniform, graded (anisotropic, the paper's) and
     graded-sr (shape-regular) series of a config block."""
-    return ([("uniform", series_tag("uniform", lv)) for lv in block["uniform_levels"]]
-            + [("graded", series_tag("graded", h)) for h in block["graded_h"]]
-            + [("graded-sr", series_tag("graded-sr", h)) for h in block.get("graded_sr_h", [])])
+    return [(family, series_tag(family, value))
+            for family, key in SERIES_KEYS.items() for value in block.get(key, [])]
 
 
 def families(block):

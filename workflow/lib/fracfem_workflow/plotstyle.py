@@ -31,12 +31,12 @@ def rate_series(ax, x, y, family, reference_error=0.0, paper=None, exclude=None)
     """Plot one family's errors; the fitted rate (runs passing report.fit_mask and not in
     ``exclude`` only, as in the rate table) and the paper's go in the legend, runs left out
     of the fit are drawn hollow.  Returns the rate."""
-    from .report import fit_mask, fit_rate
+    from .report import fit_mask, masked_rate
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     keep = fit_mask(y, reference_error)
     if exclude is not None:
         keep &= ~np.asarray(exclude, dtype=bool)
-    rate = fit_rate(x[keep], y[keep]) if keep.sum() >= 2 else float("nan")
+    rate = masked_rate(x, y, keep)
     label = (f"{FAMILY_LABELS[family]}: {rate:.3f}" if np.isfinite(rate)
              else f"{FAMILY_LABELS[family]}: no rate (< 2 runs above 3× reference error)")
     label += f" (paper {paper:.3f})" if paper is not None else ""

@@ -5,6 +5,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["PAPER_RATES", "PAPER_S", "REFERENCE_MARGIN", "paper_rate", "fit_rate", "fit_mask",
+           "masked_rate",
            "rate_table", "extrapolate_energy",
            "energy_error", "time_to_reach"]
 
@@ -56,6 +57,13 @@ def fit_mask(errors, reference_error=0.0) -> np.ndarray:
     return errors > REFERENCE_MARGIN * ref
 
 
+def masked_rate(dofs, errors, keep) -> float:
+    """fit_rate through the runs where ``keep`` holds; NaN when fewer than two do."""
+    keep = np.asarray(keep, dtype=bool)
+    dofs, errors = np.asarray(dofs, dtype=float), np.asarray(errors, dtype=float)
+    return fit_rate(dofs[keep], errors[keep]) if keep.sum() >= 2 else float("nan")
+
+
 def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFrame:
     """One row per (example, variant, family, s): fitted rate next to the paper's.
 
@@ -75,8 +83,9 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
     for (ex, var, fam, s), g in df.groupby(["example", "variant", "family", "s"], sort=True):
         paper = paper_rate(ex, fam, s, var)
         ref_err = float(g.reference_error.max())
-        keep = g[fit_mask(g[y], ref_err)]
-        rate = round(fit_rate(keep[x], keep[y]), 3) if len(keep) >= 2 else float("nan")
+        mask = fit_mask(g[y], ref_err)
+        keep = g[mask]
+        rate = round(masked_rate(g[x], g[y], mask), 3)
         fitted = keep if len(keep) else g
         rows.append({"example": int(ex), "variant": var, "family": fam, "s": float(s),
                      "rate": rate, "paper_rate": paper, "n_points": len(keep),
