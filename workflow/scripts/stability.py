@@ -49,6 +49,33 @@ def case(label, mesh, s):
     return row
 
 
+def plot(df, png):
+    """Quadrature change and conditioning across s (left), quadrature change across the
+    grading exponent (right)."""
+    fig, axs = plt.subplots(1, 2, figsize=(10, 4))
+    sw = df[df.case.str.startswith("s sweep")]
+    for lab, g in sw.groupby("case"):
+        mesh = "uniform mesh, level " + lab.split("(")[1].rstrip(")")
+        axs[0].semilogy(g.s, g.quad_change_over_err2, "o-",
+                        label=f"{mesh}: quadrature change / err²")
+        axs[0].semilogy(g.s, g.cond / g.cond.max(), "s--",
+                        label=f"{mesh}: condition number / its maximum")
+    axs[0].set_xlabel("$s$")
+    axs[0].set_ylabel("relative size")
+    axs[0].legend()
+    axs[0].set_title("Example 1 at extreme $s$")
+    gr = df[df.case.str.startswith("grading")]
+    for kind, g in gr.groupby(gr.case.str.contains("rings")):
+        axs[1].semilogy([float(c.split()[1][:-1]) for c in g.case], g.quad_change_over_err2,
+                        "o-", label="anisotropic rings" if kind else "shape-regular")
+    axs[1].axhline(0.01, color="k", lw=0.8, ls=":", label="1% of err²")
+    axs[1].set_xlabel(r"grading exponent $\mu$")
+    axs[1].set_ylabel("quadrature change / err²")
+    axs[1].legend()
+    axs[1].set_title("Strong grading, $s = 0.5$")
+    save(fig, png)
+
+
 def main(md, png, csv, log=None, threads=None):
     start(log, threads)
     rows = []
@@ -65,24 +92,7 @@ def main(md, png, csv, log=None, threads=None):
             "quad_change_over_err2", "status"]
     with atomic_path(md) as tmp:
         tmp.write_text(df[cols].to_markdown(index=False, floatfmt=".3g") + "\n")
-    fig, axs = plt.subplots(1, 2, figsize=(10, 4))
-    sw = df[df.case.str.startswith("s sweep")]
-    for lab, g in sw.groupby("case"):
-        axs[0].semilogy(g.s, g.quad_change_over_err2, "o-", label=f"{lab}: quadrature")
-        axs[0].semilogy(g.s, g.cond / g.cond.max(), "s--", label=f"{lab}: cond / max")
-    axs[0].set_xlabel("s")
-    axs[0].legend(fontsize=7)
-    axs[0].set_title("Example 1 at extreme s")
-    gr = df[df.case.str.startswith("grading")]
-    for kind, g in gr.groupby(gr.case.str.contains("rings")):
-        axs[1].semilogy([float(c.split()[1][:-1]) for c in g.case], g.quad_change_over_err2,
-                        "o-", label="anisotropic rings" if kind else "shape-regular")
-    axs[1].axhline(0.01, color="k", lw=0.8, ls=":")
-    axs[1].set_xlabel("grading exponent")
-    axs[1].set_ylabel("quadrature change / err²")
-    axs[1].legend()
-    axs[1].set_title("strong grading, s = 0.5")
-    save(fig, png)
+    plot(df, png)
 
 
 if __name__ == "__main__":
