@@ -1,5 +1,6 @@
 """Compressed operator benchmark: Example 1 (f = 1 on the unit disk, exact energy)
-on uniform and 2-graded disks, for several s.
+on uniform disks and 2-graded disks (the paper's anisotropic family,
+``disk_graded_aniso``, and the shape-regular ``disk_graded``), for several s.
 
 Per case: free nodes, assembly seconds (by phase), matvec seconds, memory of the
 representation (nbytes) and peak RSS of the process, PCG iterations and solve
@@ -7,7 +8,7 @@ seconds (multilevel preconditioner, relative residual 1e-10), the energy error
 ‖u − u_h‖_a = √((f, u) − (f, u_h)), and, where the dense matrix fits (up to
 8,065 free nodes), the relative matvec and energy differences to it.
 
-    python benchmarks/bench_compressed.py --uniform 5 6 7 8 --graded 0.025 --s 0.25 0.5 0.75 \\
+    python benchmarks/bench_compressed.py --uniform 5 6 7 8 --graded 0.0045 --s 0.25 0.5 0.75 \\
         --csv benchmarks/compressed.csv --md benchmarks/compressed.md
 
 Each case runs in its own process so that peak memory is per case.  The
@@ -34,7 +35,9 @@ def run_case(family: str, size: float, s: float) -> dict:
     from fracfem.compressed import stiffness_operator
 
     ff.discretise(ff.disk_uniform(2), s, operator="compressed")  # load cached kernels
-    mesh = ff.disk_uniform(int(size)) if family == "uniform" else ff.disk_graded(size)
+    mesh = {"uniform": lambda: ff.disk_uniform(int(size)),
+            "graded": lambda: ff.disk_graded_aniso(size),
+            "graded-sr": lambda: ff.disk_graded(size)}[family]()
     t0 = time.perf_counter()
     disc = ff.discretise(mesh, s, operator="compressed")
     assembly = time.perf_counter() - t0
@@ -69,7 +72,10 @@ def run_case(family: str, size: float, s: float) -> dict:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--uniform", type=int, nargs="*", default=[5, 6, 7])
-    ap.add_argument("--graded", type=float, nargs="*", default=[])
+    ap.add_argument("--graded", type=float, nargs="*", default=[],
+                    help="h of anisotropic 2-graded disks (disk_graded_aniso)")
+    ap.add_argument("--graded-sr", type=float, nargs="*", default=[],
+                    help="h of shape-regular 2-graded disks (disk_graded)")
     ap.add_argument("--s", type=float, nargs="+", default=[0.25, 0.5, 0.75])
     ap.add_argument("--csv")
     ap.add_argument("--md")
@@ -83,7 +89,8 @@ def main(argv=None):
         return
     import pandas as pd
     rows = []
-    cases = [("uniform", lv) for lv in args.uniform] + [("graded", h) for h in args.graded]
+    cases = ([("uniform", lv) for lv in args.uniform] + [("graded", h) for h in args.graded]
+             + [("graded-sr", h) for h in args.graded_sr])
     for fam, size in cases:
         for s in args.s:
             # the case's progress lines (stderr) go straight to this run's output

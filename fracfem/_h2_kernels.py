@@ -494,7 +494,8 @@ def _edge_term(x0, x1, edges, e, g, s, gl_x, gl_w, gj_x, gj_w, full, far_x, far_
                far2_x):  # pragma: no cover
     """Share of Gauss point g (0 or 1) of edge e in 2s·κ(x), by the rule of
     :func:`fracfem._kernels.exterior_kappa`: its own term where that kernel
-    uses the two-point rule, else half of the edge's contribution."""
+    uses the two-point rule, else the whole edge's contribution on g = 0 and
+    nothing on g = 1 (the edge's integral computed once)."""
     s2 = 2.0 * s
     ax = edges[e, 0] - x0
     ay = edges[e, 1] - x1
@@ -517,15 +518,17 @@ def _edge_term(x0, x1, edges, e, g, s, gl_x, gl_w, gj_x, gj_w, full, far_x, far_
     if dm2 > 144.0 * ln * ln:
         tg = t1 + (t2 - t1) * far2_x[g]
         return d * (t2 - t1) * 0.5 * (d * d + tg * tg) ** (-1.0 - s)
+    if g == 1:
+        return 0.0
     if dm2 > 16.0 * ln * ln:
         part = 0.0
         for q in range(far_x.shape[0]):
             tq = t1 + (t2 - t1) * far_x[q]
             part += far_w[q] * (d * d + tq * tq) ** (-1.0 - s)
-        return 0.5 * d * (t2 - t1) * part
+        return d * (t2 - t1) * part
     f2 = _kernels_cos_power(np.arctan(t2 / ad), s2, gl_x, gl_w, gj_x, gj_w, full)
     f1 = _kernels_cos_power(np.arctan(t1 / ad), s2, gl_x, gl_w, gj_x, gj_w, full)
-    return 0.5 * np.sign(d) * ad ** (-s2) * (f2 - f1)
+    return np.sign(d) * ad ** (-s2) * (f2 - f1)
 
 
 @njit(cache=True, parallel=True)

@@ -5,6 +5,7 @@ import logging
 import time
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from ._progress import SOLVER_SECONDS, solver_level
@@ -34,7 +35,10 @@ def pcg(A, b: np.ndarray, *, M=None, tol: float = 1e-10, maxiter: int = 1000,
 
     Stops when ‖b − A x‖ ≤ tol·‖b‖; raises :class:`ConvergenceError` after
     ``maxiter`` iterations.  M is the preconditioner, a callable r ↦ M⁻¹r.
-    Returns x and {"iterations", "residual", "seconds"}.
+    Returns x and {"iterations", "residual", "seconds", "eigenvalues",
+    "condition"}: the extreme Ritz values of M⁻¹A from the CG coefficients
+    (the Lanczos tridiagonal; estimates from inside the spectrum, nan before
+    the first iteration) and their ratio.
 
     Logs (logger ``fracfem.krylov``) one summary line at the end (INFO, DEBUG
     inside time stepping), each iteration at DEBUG and, in a solve longer than
@@ -53,7 +57,8 @@ def pcg(A, b: np.ndarray, *, M=None, tol: float = 1e-10, maxiter: int = 1000,
     x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=np.float64)
     if nb == 0.0:
         log.log(solver_level(), "PCG: zero right-hand side, 0 iterations")
-        return np.zeros_like(b), {"iterations": 0, "residual": 0.0, "seconds": 0.0}
+        return np.zeros_like(b), {"iterations": 0, "residual": 0.0, "seconds": 0.0,
+                                  "eigenvalues": (np.nan, np.nan), "condition": np.nan}
     debug = log.isEnabledFor(logging.DEBUG)
     r = b - A @ x if x0 is not None else b.copy()
     z = prec(r)
@@ -61,6 +66,7 @@ def pcg(A, b: np.ndarray, *, M=None, tol: float = 1e-10, maxiter: int = 1000,
     rz = float(r @ z)
     res = float(np.linalg.norm(r)) / nb
     it = 0
+    alphas, betas = [], []
     while res > tol:
         if it >= maxiter:
             raise ConvergenceError("PCG did not reach its tolerance", it, res)
@@ -73,7 +79,9 @@ def pcg(A, b: np.ndarray, *, M=None, tol: float = 1e-10, maxiter: int = 1000,
         r -= alpha * q
         z = prec(r)
         rz_new = float(r @ z)
-        p = z + (rz_new / rz) * p
+        alphas.append(alpha)
+        betas.append(rz_new / rz)
+        p = z + betas[-1] * p
         rz = rz_new
         res = float(np.linalg.norm(r)) / nb
         it += 1
@@ -84,9 +92,24 @@ def pcg(A, b: np.ndarray, *, M=None, tol: float = 1e-10, maxiter: int = 1000,
         elif debug:
             log.debug("PCG iteration %d: relative residual %.2e", it, res)
     sec = time.perf_counter() - t0
-    log.log(solver_level(), "PCG: %d iterations, relative residual %.2e, %d unknowns, %.2f s",
-            it, res, len(b), sec)
-    return x, {"iterations": it, "residual": res, "seconds": sec}
+    lo, hi = _ritz_range(alphas, betas)
+    log.log(solver_level(), "PCG: %d iterations, relative residual %.2e, %d unknowns, %.2f s, "
+            "condition ≈ %.3g", it, res, len(b), sec, hi / lo)
+    return x, {"iterations": it, "residual": res, "seconds": sec, "eigenvalues": (lo, hi),
+               "condition": hi / lo}
+
+
+def _ritz_range(alphas: list, betas: list) -> tuple[float, float]:
+    """Smallest and largest eigenvalue of the Lanczos tridiagonal of CG
+    (step lengths α_j, β_j = r_{j+1}ᵀz_{j+1} / r_jᵀz_j); nan without steps."""
+    k = len(alphas)
+    if k == 0:
+        return np.nan, np.nan
+    a, b = np.asarray(alphas), np.asarray(betas)
+    diag = 1.0 / a
+    diag[1:] += b[:-1] / a[:-1]
+    ev = sla.eigvalsh_tridiagonal(diag, np.sqrt(b[:-1]) / a[:-1])
+    return float(ev[0]), float(ev[-1])
 
 
 class ShiftedOperator(spla.LinearOperator):

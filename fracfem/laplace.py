@@ -92,15 +92,16 @@ def discretise(mesh, s: float, f=1.0, *, quadrature: QuadratureOptions | None = 
 def solve_laplace(disc: Discretisation, *, tol: float = SOLVER_TOL,
                   maxiter: int = 2000) -> np.ndarray:
     """u_h on the free nodes: Cholesky for a dense A, else PCG with the
-    multilevel preconditioner (iterations in disc.info); timing in
-    disc.timings."""
+    multilevel preconditioner (iterations and the condition estimate of the
+    preconditioned operator in disc.info); timing in disc.timings."""
     if not disc.dense:
         t0 = time.perf_counter()
         M = multilevel_preconditioner(disc.mesh, disc.A)
         disc.timings["preconditioner"] = time.perf_counter() - t0
         u, stats = pcg(disc.A, disc.b, M=M, tol=tol, maxiter=maxiter)
         disc.timings["solve"] = time.perf_counter() - t0
-        disc.info.update(iterations=stats["iterations"], residual=stats["residual"])
+        disc.info.update(iterations=stats["iterations"], residual=stats["residual"],
+                         condition=stats["condition"])
         return u
     t0 = time.perf_counter()
     n = len(disc.A)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from . import krylov_vi, mixed, solvers
 from .assembly import QuadratureOptions
@@ -23,8 +24,10 @@ from .exact import check_s
 from .laplace import Discretisation, discretise
 from .meshes import refine_disk, validates
 from .preconditioners import multilevel_preconditioner
+from .transfer import interpolate_at, locate
 
-__all__ = ["MixedProblem", "mixed_problem", "solve", "fine_mesh"]
+__all__ = ["MixedProblem", "mixed_problem", "solve", "solve_nested", "fine_mesh",
+           "prolong_multiplier"]
 
 KINDS = ("obstacle", "friction", "thin_obstacle", "thin_friction")
 
@@ -139,3 +142,50 @@ def solve(prob: MixedProblem, solver: str = "uzawa", **kwargs):
                        schur=prob.schur, **kwargs)
     info["seconds_total"] = time.perf_counter() - t0
     return prob.disc.extend(u), lam, info
+
+
+def prolong_multiplier(coarse_from, lam: np.ndarray, coarse_to) -> np.ndarray:
+    """λ_H (P0 on coarse_from) on the elements of coarse_to: the value of the
+    element holding each centroid (exact when coarse_to refines coarse_from;
+    a centroid outside coarse_from takes the element with the nearest centroid)."""
+    lam = np.asarray(lam, dtype=float)
+    if lam.shape != (coarse_from.t.shape[1],):
+        raise ValueError(f"lam has shape {lam.shape}, coarse_from has "
+                         f"{coarse_from.t.shape[1]} elements")
+    cent = coarse_to.p[:, coarse_to.t].mean(axis=1)
+    el, _ = locate(coarse_from, cent)
+    out = el < 0
+    if np.any(out):
+        tree = cKDTree(coarse_from.p[:, coarse_from.t].mean(axis=1).T)
+        el[out] = tree.query(cent[:, out].T)[1]
+    return lam[el]
+
+
+def solve_nested(problems, solver: str = "pdas", **kwargs):
+    """Nested iteration: solve mixed problems on successively finer meshes,
+    each started from the previous solution (λ_H by :func:`prolong_multiplier`,
+    u interpolated for the inner Krylov solves); yields (u, λ_H, info) of each.
+
+    problems: an iterable of :class:`MixedProblem` of kind 'obstacle' or
+    'friction' (built lazily by a generator, only one is held at a time);
+    kwargs go to :func:`solve` (not lam0 or u0).  The active set of the coarser
+    solution is nearly the finer one, so PDAS needs a few steps per level
+    instead of a number growing with the resolution of the contact boundary.
+    """
+    if "lam0" in kwargs or "u0" in kwargs:
+        raise ValueError("solve_nested sets lam0 and u0 itself")
+    prev = None
+    for prob in problems:
+        if prob.kind not in ("obstacle", "friction"):
+            raise ValueError(f"solve_nested needs 'obstacle' or 'friction' problems, "
+                             f"got kind={prob.kind!r}")
+        start = {}
+        if prev is not None:
+            coarse, fine, u, lam = prev
+            start["lam0"] = prolong_multiplier(coarse, lam, prob.coarse)
+            if not prob.disc.dense:
+                start["u0"] = interpolate_at(fine, u, prob.fine.p[:, prob.disc.free])
+        u, lam, info = solve(prob, solver, **start, **kwargs)
+        prev = (prob.coarse, prob.fine, u, lam)
+        del prob  # the operator goes before the next problem is assembled
+        yield u, lam, info

@@ -205,6 +205,13 @@ GROUPS = [
         "dense_solve_s": "the dense PDAS solve on the same mesh",
         ("du_rel", "dlam_rel"): "max |u − u_dense| / max |u_dense|, the same for λ_H",
     }),
+    ("PCG with the multilevel preconditioner (`benchmarks/pcg.md`)", False, {
+        "mesh": "the mesh, as the fracfem call that makes it",
+        "condition": "condition estimate of the preconditioned operator: the ratio of "
+                     "the extreme Ritz values from the CG coefficients",
+        ("jacobi_iterations", "jacobi_condition"): "the same with the diagonal alone "
+                                                    "(Jacobi)",
+    }),
     ("Pointwise (−Δ)ˢu_h (`benchmarks/pointwise.md`)", False, {
         "points": "evaluation points: the quadrature points of every element",
         "edges": "mesh edges (sources of the single layer)",
