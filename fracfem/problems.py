@@ -6,12 +6,18 @@ assembles it on a mesh (Example 1: the P1 mesh; the mixed examples: the
 multiplier mesh T_H, with T_h = refine_disk(T_H)).  :func:`example` builds one
 from its name and parameters, as a configuration file gives them.
 
-A member of a series is named by a tag: ``L<level>`` (uniform, from
-disk_uniform(level)) or ``h<h>`` (graded, from disk_graded(h)).
+A member of a series is named by a tag, one letter per family of meshes:
+
+- ``L<level>``: family ``uniform``, disk_uniform(level);
+- ``h<h>``: family ``graded``, the paper's anisotropic 2-graded meshes
+  disk_graded_aniso(h, grading) (N ~ h⁻², halving h quadruples N);
+- ``r<h>``: family ``graded-sr``, the shape-regular graded meshes
+  disk_graded(h, grading) (N ~ h⁻²|log h|), kept to compare the two gradings.
+
 :func:`series_mesh` is the mesh of Example 1 of that tag, :func:`multiplier_mesh`
 the multiplier mesh T_H of the mixed examples: for ``L<level>`` the fine mesh is
-disk_uniform(level), so T_H = disk_uniform(level − 1); for ``h<h>`` T_H is
-disk_graded(h) and T_h its refinement.
+disk_uniform(level), so T_H = disk_uniform(level − 1); for a graded tag T_H is
+the graded mesh of h and T_h its refinement.
 """
 from __future__ import annotations
 
@@ -27,11 +33,11 @@ from . import examples, vi
 from .assembly import QuadratureOptions
 from .exact import check_s, disk_energy
 from .laplace import Discretisation, discretise
-from .meshes import disk_graded, disk_uniform
+from .meshes import disk_graded, disk_graded_aniso, disk_uniform
 
 __all__ = ["Example1", "Example2", "Example3", "Example4", "Example5", "ThinObstacleDemo",
            "ThinFrictionDemo", "EXAMPLES", "example", "series_tag", "parse_series_tag",
-           "series_mesh", "multiplier_mesh"]
+           "series_mesh", "multiplier_mesh", "SERIES_FAMILIES"]
 
 
 def _finite(name: str, value) -> float:
@@ -256,52 +262,62 @@ def example(name: str, **parameters):
 # ------------------------------------------------------------------ series members
 
 
-_TAG = re.compile(r"^(?:L(?P<level>[0-9]+)|h(?P<h>[0-9]*\.?[0-9]+(?:e-?[0-9]+)?))$")
+# family of a series -> the letter of its tags
+SERIES_FAMILIES = {"uniform": "L", "graded": "h", "graded-sr": "r"}
+_FAMILY_OF_LETTER = {letter: family for family, letter in SERIES_FAMILIES.items()}
+_TAG = re.compile(r"^(?:L(?P<level>[0-9]+)|(?P<letter>[hr])(?P<h>[0-9]*\.?[0-9]+(?:e-?[0-9]+)?))$")
 
 
 def series_tag(family: str, value) -> str:
-    """The tag of a series member: ``L<level>`` (uniform) or ``h<h>`` (graded).
+    """The tag of a series member: ``L<level>`` (uniform), ``h<h>`` (graded) or
+    ``r<h>`` (graded-sr).
 
-    The graded tag writes h with format ``g``, so h = 0.2 and h = 0.20 share a tag.
+    A graded tag writes h with format ``g``, so h = 0.2 and h = 0.20 share a tag.
     """
     if family == "uniform":
         if (isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real)
                 or int(value) != value or value < 0):
             raise ValueError(f"uniform level={value!r} must be an integer >= 0")
         return f"L{int(value)}"
-    if family == "graded":
+    if family in SERIES_FAMILIES:
         h = _finite("h", value)
         if not h > 0:
-            raise ValueError(f"graded h={value!r} must be > 0")
-        return f"h{h:g}"
-    raise ValueError(f"family={family!r} must be 'uniform' or 'graded'")
+            raise ValueError(f"{family} h={value!r} must be > 0")
+        return f"{SERIES_FAMILIES[family]}{h:g}"
+    raise ValueError(f"family={family!r} must be one of {sorted(SERIES_FAMILIES)}")
 
 
 def parse_series_tag(tag: str) -> tuple[str, float | int]:
-    """('uniform', level) or ('graded', h) from a tag of :func:`series_tag`."""
+    """(family, level or h) from a tag of :func:`series_tag`."""
     m = _TAG.match(tag) if isinstance(tag, str) else None
     if m is None:
-        raise ValueError(f"tag={tag!r} must be L<level> (e.g. L3) or h<h> (e.g. h0.35)")
+        raise ValueError(f"tag={tag!r} must be L<level> (e.g. L3), h<h> (e.g. h0.1, "
+                         "anisotropic graded) or r<h> (e.g. r0.35, shape-regular graded)")
     if m["level"] is not None:
         return "uniform", int(m["level"])
-    return "graded", float(m["h"])
+    return _FAMILY_OF_LETTER[m["letter"]], float(m["h"])
+
+
+def _graded_mesh(family, h, grading):
+    return disk_graded_aniso(h, grading) if family == "graded" else disk_graded(h, grading)
 
 
 def series_mesh(tag: str, grading: float = 2.0):
-    """Example 1's mesh of a tag: disk_uniform(level) or disk_graded(h, grading)."""
+    """Example 1's mesh of a tag: disk_uniform(level), disk_graded_aniso(h, grading)
+    or disk_graded(h, grading)."""
     family, value = parse_series_tag(tag)
     if family == "uniform":
         return disk_uniform(value)
-    return disk_graded(value, grading)
+    return _graded_mesh(family, value, grading)
 
 
 def multiplier_mesh(tag: str, grading: float = 2.0):
-    """T_H of a tag: disk_uniform(level − 1) (so that T_h = disk_uniform(level)) or
-    disk_graded(h, grading)."""
+    """T_H of a tag: disk_uniform(level − 1) (so that T_h = disk_uniform(level)) or the
+    graded mesh of h (T_h its refinement)."""
     family, value = parse_series_tag(tag)
     if family == "uniform":
         if value < 1:
             raise ValueError(f"tag={tag!r}: the fine mesh of a mixed problem is "
                              "disk_uniform(level) with level >= 1")
         return disk_uniform(value - 1)
-    return disk_graded(value, grading)
+    return _graded_mesh(family, value, grading)

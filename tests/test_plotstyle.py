@@ -3,6 +3,7 @@ re-running a figure rule on unchanged data leaves the committed figures untouche
 import time
 
 import numpy as np
+import pytest
 
 from fracfem_workflow.plotstyle import plt, save
 
@@ -33,3 +34,87 @@ def test_saving_twice_gives_identical_files(tmp_path, monkeypatch):
     pdf = (tmp_path / "a" / "f.pdf").read_bytes()
     assert b"/CreationDate" not in pdf and b"/ModDate" not in pdf
     assert plt.get_fignums() == []             # save closes the figure
+
+
+def _overlap(a, b):
+    """Whether two display-space boxes overlap (touching edges do not count)."""
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+@pytest.mark.parametrize("figsize", [(10, 4.2), (5, 7), (12, 3)])
+def test_colorbar_never_runs_into_the_title(figsize):
+    """A long title over an equal-aspect map with a colour bar whose end tick labels sit
+    at the very ends: in wide, tall and flat figures the title and the colour bar
+    (with its tick labels) stay apart."""
+    from fracfem_workflow.plotstyle import colorbar, map_axes
+
+    fig, ax = plt.subplots(figsize=figsize)
+    x, y = np.meshgrid(np.linspace(-1, 1, 6), np.linspace(-1, 1, 6))
+    tp = ax.tripcolor(x.ravel(), y.ravel(), np.linspace(-2.0, 0.0, 36), vmin=-2, vmax=0)
+    cb = colorbar(fig, tp, ax, r"$\lambda_H$")
+    map_axes(ax)
+    ax.set_title(r"$\lambda_H$; contact where $\lambda_H < 0$: 84 of 1024 elements, "
+                 "a title as long as the panel")
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    title = ax.title.get_window_extent(renderer)
+    bar = cb.ax.get_tightbbox(renderer)
+    assert not _overlap(title, bar)
+    assert bar.y1 < ax.get_window_extent(renderer).y1 + 1       # not above the map
+    plt.close(fig)
+
+
+def test_interface_segments_are_the_edges_between_labels():
+    """Unit square cut into 2×2 squares, each into two triangles: labelling the left
+    column 1 gives exactly the two edges on x = 1/2; one label everywhere gives none."""
+    from fracfem_workflow.plotstyle import interface_segments
+
+    x, y = np.meshgrid([0.0, 0.5, 1.0], [0.0, 0.5, 1.0])
+    p = np.vstack([x.ravel(), y.ravel()])
+    t = []
+    for j in range(2):
+        for i in range(2):
+            a, b, c, d = 3 * j + i, 3 * j + i + 1, 3 * (j + 1) + i, 3 * (j + 1) + i + 1
+            t += [[a, b, d], [a, d, c]]
+    t = np.array(t).T
+    centroid_x = p[0, t].mean(axis=0)
+    seg = interface_segments(p, t, (centroid_x < 0.5).astype(int))
+    assert seg.shape == (2, 2, 2)
+    assert np.allclose(seg[:, :, 0], 0.5)                        # both ends on x = 1/2
+    assert sorted(seg[:, :, 1].sum(axis=1)) == [0.5, 1.5]        # (0→½) and (½→1)
+    assert interface_segments(p, t, np.zeros(t.shape[1], int)).shape == (0, 2, 2)
+
+
+def test_friction_states():
+    from fracfem_workflow.plotstyle import friction_states
+
+    lam = np.array([0.5, 0.5 * (1 - 1e-9), 0.49, 0.0, -0.49, -0.5])
+    assert friction_states(lam, 0.5).tolist() == [1, 1, 0, 0, 0, -1]
+
+
+def test_problem_titles_are_the_papers_words():
+    from fracfem_workflow.plotstyle import problem_title
+
+    assert problem_title("ex4-u1") == "Example 4, $u_0 = 1$"
+    assert problem_title("ex4-u2") == r"Example 4, $\tilde u_0 = 2$"
+    assert problem_title("ex3-printed") == "Example 3, $f = 1$"
+    assert problem_title("ex5") == "Example 5"
+    assert problem_title("ex3-mydata") == "Example 3 (mydata)"     # a data set of a config
+
+
+def test_plain_log_ticks_label_a_short_range_without_overlap():
+    """0.3 s to 5 s: labels 0.5, 1, 2, 5 as plain numbers, no two of them overlapping."""
+    from fracfem_workflow.plotstyle import plain_log_ticks
+
+    fig, ax = plt.subplots(figsize=(4, 3))
+    ax.loglog([0.3, 5.0], [0.4, 0.2])
+    plain_log_ticks(ax.xaxis)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    labels = [lab for lab in ax.get_xticklabels(which="both")
+              if lab.get_text() and lab.get_visible()
+              and 0.3 <= lab.get_position()[0] <= 5.0]
+    assert [lab.get_text() for lab in labels] == ["0.5", "1", "2", "5"]
+    boxes = [lab.get_window_extent(renderer) for lab in labels]
+    assert not any(_overlap(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+    plt.close(fig)

@@ -9,14 +9,14 @@ from fracfem import examples, problems, vi
 
 @pytest.mark.parametrize("family, value, tag", [
     ("uniform", 3, "L3"), ("uniform", 3.0, "L3"), ("graded", 0.35, "h0.35"),
-    ("graded", 0.20, "h0.2"), ("graded", 1e-5, "h1e-05"),
+    ("graded", 0.20, "h0.2"), ("graded", 1e-5, "h1e-05"), ("graded-sr", 0.35, "r0.35"),
 ])
 def test_tags_round_trip(family, value, tag):
     assert problems.series_tag(family, value) == tag
     assert problems.parse_series_tag(tag) == (family, value)
 
 
-@pytest.mark.parametrize("tag", ["L", "L3.5", "h", "hx", "3", "Lh3", "h0.3 ", None])
+@pytest.mark.parametrize("tag", ["L", "L3.5", "h", "hx", "3", "Lh3", "h0.3 ", "r", "s0.3", None])
 def test_bad_tags_are_refused(tag):
     with pytest.raises(ValueError, match="tag"):
         problems.parse_series_tag(tag)
@@ -24,6 +24,7 @@ def test_bad_tags_are_refused(tag):
 
 @pytest.mark.parametrize("family, value", [("uniform", 2.5), ("uniform", -1),
                                            ("graded", 0.0), ("graded", np.nan),
+                                           ("graded-sr", -0.1),
                                            ("adaptive", 1)])
 def test_bad_series_members_are_refused(family, value):
     with pytest.raises(ValueError):
@@ -36,12 +37,14 @@ def same_mesh(a, b):
 
 def test_series_meshes_of_tags():
     assert same_mesh(problems.series_mesh("L3"), ff.disk_uniform(3))
-    assert same_mesh(problems.series_mesh("h0.35", 2.0), ff.disk_graded(0.35, 2.0))
+    assert same_mesh(problems.series_mesh("h0.1", 2.0), ff.disk_graded_aniso(0.1, 2.0))
+    assert same_mesh(problems.series_mesh("r0.35", 2.0), ff.disk_graded(0.35, 2.0))
     # mixed problems: the fine mesh of L3 is disk_uniform(3), T_H one level coarser
     coarse = problems.multiplier_mesh("L3")
     assert same_mesh(coarse, ff.disk_uniform(2))
     assert vi.fine_mesh(coarse).p.shape == ff.disk_uniform(3).p.shape
-    assert same_mesh(problems.multiplier_mesh("h0.56", 3.0), ff.disk_graded(0.56, 3.0))
+    assert same_mesh(problems.multiplier_mesh("r0.56", 3.0), ff.disk_graded(0.56, 3.0))
+    assert same_mesh(problems.multiplier_mesh("h0.2", 3.0), ff.disk_graded_aniso(0.2, 3.0))
     with pytest.raises(ValueError, match="level >= 1"):
         problems.multiplier_mesh("L0")
 

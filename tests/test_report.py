@@ -69,6 +69,23 @@ def test_fit_rate_and_variants_in_rate_table():
     assert pd.isna(t.loc["signchange", "paper_rate"])
 
 
+def test_rate_table_fits_only_runs_well_above_the_reference_error():
+    N = np.array([100, 400, 1600, 6400])
+    err = N ** -0.5
+    df = pd.DataFrame({"example": 2, "family": "graded", "s": 0.5, "dofs": N, "error": err})
+    exact = rate_table(df).iloc[0]
+    assert exact.n_points == 4 and exact.n_excluded == 0 and exact.reference_error == 0
+    # the last run's error is below 3 × the reference's: left out of the fit
+    df["reference_error"] = err[-1] / 2.5
+    t = rate_table(df).iloc[0]
+    assert (t.n_points, t.n_excluded, t.dof_max) == (3, 1, 1600)
+    assert t.rate == pytest.approx(-0.5) and t.smallest_error == pytest.approx(err[-1])
+    # a reference as coarse as the runs leaves no rate, rather than a wrong one
+    df["reference_error"] = err[1] / 2
+    t = rate_table(df).iloc[0]
+    assert t.n_points == 1 and np.isnan(t.rate)
+
+
 def test_paper_rate_only_for_the_papers_order_and_data():
     from fracfem_workflow.report import PAPER_RATES, paper_rate
     assert paper_rate(1, "graded", 0.5) == PAPER_RATES[(1, "graded")]

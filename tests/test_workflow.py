@@ -30,9 +30,12 @@ def test_one_figure_runs_only_its_jobs(tmp_path):
     _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
                       "--", f"{tmp_path}/o/fig02-ex1-error.png")
     jobs = job_counts(text)
-    # Figure 2: the s = 0.5 uniform, graded and adaptive series, nothing else
+    # Figure 2: the s = 0.5 uniform, graded, graded-sr and adaptive series, nothing else
+    import yaml
+    ex1 = yaml.safe_load((ROOT / "config.yaml").read_text())["example1"]
+    runs = len(ex1["uniform_levels"]) + len(ex1["graded_h"]) + len(ex1["graded_sr_h"])
     assert set(jobs) == {"ex1_solve", "ex1_adaptive", "fig02"}
-    assert jobs["ex1_solve"] == 10 and jobs["ex1_adaptive"] == 1
+    assert jobs["ex1_solve"] == runs == 14 and jobs["ex1_adaptive"] == 1
     assert "s0.25" not in text and "benchmark_assembly" not in text
 
 
@@ -87,3 +90,13 @@ def test_every_paper_figure_is_a_default_target(tmp_path):
     _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o")
     for num in range(1, 16):
         assert re.search(rf"{tmp_path}/o/fig{num:02d}-[\w-]+\.png", text), f"Figure {num}"
+
+
+def test_reference_family_needs_three_meshes(tmp_path):
+    """The Example 2/3 reference is extrapolated through three runs of one family: a config
+    with fewer is refused before any job, naming the key."""
+    (tmp_path / "short.yaml").write_text("example2:\n  graded_sr_h: [0.8, 0.56]\n"
+                                         "reference:\n  family: graded-sr\n")
+    code, text = dry_run("--configfile", str(tmp_path / "short.yaml"), ok=False)
+    assert code != 0
+    assert "example2.graded_sr_h=[0.8, 0.56] must list at least 3 meshes" in text

@@ -35,11 +35,24 @@ def _as_list(value, name):
 
 for _key in ("s_values",):
     config[_key] = _as_list(config[_key], _key)
-for _key in ("uniform_levels", "graded_h"):
-    config["example1"][_key] = _as_list(config["example1"][_key], f"example1.{_key}")
+# the config key listing the members of each mesh family's series
+SERIES_KEYS = {"uniform": "uniform_levels", "graded": "graded_h", "graded-sr": "graded_sr_h"}
+for _key in SERIES_KEYS.values():
+    if _key in config["example1"]:
+        config["example1"][_key] = _as_list(config["example1"][_key], f"example1.{_key}")
 config["benchmark"]["levels"] = _as_list(config["benchmark"]["levels"], "benchmark.levels")
 
 validate(config, "../schemas/config.schema.yaml")
+
+# the reference energy of Examples 2 and 3 is extrapolated through three runs of one family,
+# and the same extrapolation is checked against Example 1's exact energy
+_REF_KEY = SERIES_KEYS[config["reference"]["family"]]
+for _block in ("example1", "example2", "example3"):   # Example 1: the extrapolation check
+    if len(config[_block].get(_REF_KEY, [])) < 3:
+        raise ValueError(f"config {_block}.{_REF_KEY}={config[_block].get(_REF_KEY, [])!r} must "
+                         f"list at least 3 meshes: reference.family="
+                         f"{config['reference']['family']!r} extrapolates through its three "
+                         "finest energies")
 
 
 def _science(cfg):
@@ -85,9 +98,15 @@ def path(pattern, **wildcards):
 
 
 def series(block):
-    """(family, tag) of every run of the uniform and graded series of a config block."""
-    return ([("uniform", series_tag("uniform", lv)) for lv in block["uniform_levels"]]
-            + [("graded", series_tag("graded", h)) for h in block["graded_h"]])
+    """(family, tag) of every run of the uniform, graded (anisotropic, the paper's) and
+    graded-sr (shape-regular) series of a config block."""
+    return [(family, series_tag(family, value))
+            for family, key in SERIES_KEYS.items() for value in block.get(key, [])]
+
+
+def families(block):
+    """The mesh families a config block runs, in the order of series()."""
+    return list(dict.fromkeys(fam for fam, _ in series(block)))
 
 
 def last_tag(block, family):
@@ -177,6 +196,6 @@ def para_error_tables(wildcards):
 
 
 wildcard_constraints:
-    family="uniform|graded",
+    family="uniform|graded|graded-sr",
     s=r"[0-9.]+",
-    tag=r"L[0-9]+|h[0-9.e-]+",
+    tag=r"L[0-9]+|[hr][0-9.e-]+",

@@ -11,7 +11,7 @@ rule para_solve:
         f"{RES}/benchmarks/para/{{problem}}_{{family}}_{{tag}}.tsv"
     wildcard_constraints:
         problem="|".join(PARA_PROBLEMS),
-        family="uniform|graded|reference",
+        family="uniform|graded|graded-sr|reference",
     params:
         example=para_example,
         data=para_data,
@@ -155,6 +155,7 @@ rule fig14:
     params:
         times=[0.0, 0.2, 0.4, 0.8],
         F=PARA["examples"]["ex5"]["F"],
+        tol=SOLVER["tol"],
     log:
         f"{RES}/logs/fig14.log",
     benchmark:

@@ -12,7 +12,7 @@ rule vi_solve:
         f"{RES}/benchmarks/vi/{{problem}}_{{family}}_{{tag}}.tsv"
     wildcard_constraints:
         problem=r"ex2|ex3-\w+|thin-obstacle|thin-friction",
-        family="uniform|graded|demo",
+        family="uniform|graded|graded-sr|demo",
     params:
         example=vi_example,
         data=vi_data,
@@ -126,7 +126,8 @@ rule fig08:
         ),
         pdf=f"{OUT}/fig08-ex3-solution-multiplier.pdf",
     params:
-        title=f"Example 3 ({EX3['figure8_variant']} data)",
+        problem=f"ex3-{EX3['figure8_variant']}",
+        F=EX3["variants"][EX3["figure8_variant"]]["F"],
     log:
         f"{RES}/logs/fig08.log",
     benchmark:

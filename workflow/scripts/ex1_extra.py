@@ -3,7 +3,8 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import MARKERS, plt, save
+from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, FAMILY_LABELS, MARKERS, WALL_TIME,
+                                        plain_log_ticks, plt, save)
 from fracfem_workflow.report import fit_rate
 
 
@@ -15,29 +16,30 @@ def main(table, time_png, orders_png, errors_md):
     with atomic_path(errors_md) as tmp:
         tmp.write_text(summary.to_markdown(index=False, floatfmt=".4g") + "\n")
     colours = {s: f"C{i}" for i, s in enumerate(sorted(df.s.unique()))}
-    dashes = {"uniform": "--", "graded": "-", "adaptive": ":"}
+    dashes = {"uniform": "--", "graded": "-", "graded-sr": "-.", "adaptive": ":"}
     fig, ax = plt.subplots(figsize=(5.5, 4))
     for (s, fam), g in df.groupby(["s", "family"]):
         g = g.sort_values("dofs")
         # adaptive: the cumulative time of all steps up to this one
         t = g.t_cumulative if fam == "adaptive" else g.t_total
         ax.loglog(t, g.error, marker=MARKERS[fam], color=colours[s], ls=dashes[fam],
-                  label=f"s={s:g}, {fam}")
-    ax.set_xlabel("wall time [s]: mesh + assembly + solve (adaptive: all steps so far)")
-    ax.set_ylabel(r"$\|u-u_h\|_a$")
+                  label=f"$s = {s:g}$, {FAMILY_LABELS[fam]}")
+    ax.set_xlabel(WALL_TIME + ": mesh + assembly + solve (adaptive: all steps so far)")
+    ax.set_ylabel(ERROR_LABELS["elliptic"])
     ax.set_title("Example 1: error against run time")
-    ax.legend(fontsize=8)
+    plain_log_ticks(ax.xaxis)
+    ax.legend()
     save(fig, time_png)
 
     fig, ax = plt.subplots(figsize=(5.5, 4))
     for (s, fam), g in df.groupby(["s", "family"]):
         g = g.sort_values("dofs")
         ax.loglog(g.dofs, g.error, marker=MARKERS[fam], color=colours[s], ls=dashes[fam],
-                  label=f"s={s:g}, {fam}: {fit_rate(g.dofs, g.error):.3f}")
-    ax.set_xlabel("degrees of freedom")
-    ax.set_ylabel(r"$\|u-u_h\|_a$")
-    ax.set_title("Example 1 for several s (fitted rates)")
-    ax.legend(fontsize=8)
+                  label=f"$s = {s:g}$, {FAMILY_LABELS[fam]}: {fit_rate(g.dofs, g.error):.3f}")
+    ax.set_xlabel(DOFS)
+    ax.set_ylabel(ERROR_LABELS["elliptic"])
+    ax.set_title("Example 1 for several $s$ (fitted rates)")
+    ax.legend()
     save(fig, orders_png)
 
 

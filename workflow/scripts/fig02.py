@@ -1,9 +1,10 @@
-"""Figure 2: Example 1 energy error vs DOFs, uniform and 2-graded, fitted rates."""
+"""Figure 2: Example 1 energy error vs DOFs, uniform and 2-graded (anisotropic, and
+shape-regular for comparison), fitted rates."""
 import pandas as pd
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import MARKERS, plt, save
-from fracfem_workflow.report import fit_rate, paper_rate
+from fracfem_workflow.plotstyle import DOFS, ERROR_LABELS, plt, problem_title, rate_series, save
+from fracfem_workflow.report import paper_rate
 
 
 def main(rows, s, png, pdf):
@@ -11,13 +12,10 @@ def main(rows, s, png, pdf):
     fig, ax = plt.subplots(figsize=(5.5, 4))
     for fam, g in df.groupby("family"):
         g = g.sort_values("dofs")
-        rate = fit_rate(g.dofs, g.error)
-        paper = paper_rate(1, fam, s)
-        label = f"{fam}: rate {rate:.3f}" + (f" (paper {paper:.3f})" if paper is not None else "")
-        ax.loglog(g.dofs, g.error, marker=MARKERS[fam], label=label)
-    ax.set_xlabel("degrees of freedom")
-    ax.set_ylabel(r"$\|u-u_h\|_a$")
-    ax.set_title(f"Example 1, s = {s:g}")
+        rate_series(ax, g.dofs, g.error, fam, 0.0, paper_rate(1, fam, s))   # exact solution
+    ax.set_xlabel(DOFS)
+    ax.set_ylabel(ERROR_LABELS["elliptic"])
+    ax.set_title(f"{problem_title('ex1')}, $s = {s:g}$; fitted rates")
     ax.legend()
     save(fig, png, pdf)
 

@@ -2,7 +2,7 @@
 import fracfem as ff
 from fracfem.examples import paraboloid_obstacle
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import plt, save
+from fracfem_workflow.plotstyle import plt, save, surface
 
 
 def main(height, slope, png, pdf):
@@ -10,7 +10,7 @@ def main(height, slope, png, pdf):
     chi = paraboloid_obstacle(height, slope)(m.p)
     fig = plt.figure(figsize=(6, 4.5))
     ax = fig.add_subplot(projection="3d")
-    ax.plot_trisurf(m.p[0], m.p[1], chi, triangles=m.t.T, cmap="coolwarm", linewidth=0)
+    surface(ax, m.p, m.t, chi, cmap="coolwarm")
     ax.set_title(rf"Obstacle $\chi = {height:g} - {slope:g}|x|^2$")
     save(fig, png, pdf)
 

@@ -2,7 +2,7 @@
 import numpy as np
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import plt, save
+from fracfem_workflow.plotstyle import plt, problem_title, save
 
 
 def main(npz, png, pdf):
@@ -12,8 +12,7 @@ def main(npz, png, pdf):
     for ax, k in zip(axes[0], steps):
         p, t = d[f"p{k}"], d[f"t{k}"]
         ax.triplot(p[0], p[1], t.T, lw=0.2, color="k")
-        # the obstacle's contact boundary of the final solution, for orientation
-        ax.set_title(f"after {k} refinements: {t.shape[1]} triangles", fontsize=9)
+        ax.set_title(f"after {k} refinement{'' if k == 1 else 's'}: {t.shape[1]} triangles")
         ax.set_aspect("equal")
         ax.set_axis_off()
     pc, tc, lam = d["pc"], d["tc"], d["lam"]
@@ -21,7 +20,8 @@ def main(npz, png, pdf):
     for ax in axes[0]:
         ax.tripcolor(pc[0], pc[1], tc.T, facecolors=np.where(contact, 1.0, np.nan),
                      cmap="Reds", vmin=0, vmax=2, alpha=0.35, edgecolors="none")
-    fig.suptitle("Example 2, Algorithm B: meshes $T_h$ (shaded: final contact set)")
+    fig.suptitle(f"{problem_title('ex2')}, Algorithm B: meshes $T_h$ "
+                 r"(shaded: final contact set $\{\lambda_H < 0\}$)")
     save(fig, png, pdf)
 
 

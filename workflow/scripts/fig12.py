@@ -2,7 +2,7 @@
 import numpy as np
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import plt, save
+from fracfem_workflow.plotstyle import plt, problem_title, save
 
 
 def slices(d, key):
@@ -26,12 +26,12 @@ def main(npz, png, pdf):
             ax = axes[r][c]
             ax.triplot(p[0], p[1], t.T, lw=0.15, color="k")
             name = f"pass {last_it}" if key == "last" else f"pass {key[2:]}"
-            ax.set_title(f"{name}, t = {t_out:g}: {t.shape[1]} tri.", fontsize=8)
+            ax.set_title(f"{name}, $t = {t_out:g}$: {t.shape[1]} triangles")
             ax.set_aspect("equal")
             ax.set_axis_off()
         for c in range(len(sl), ncol):
             axes[r][c].set_axis_off()
-    fig.suptitle("Example 4, $u_0 = 1$: meshes $T_h$ of the time slabs containing t")
+    fig.suptitle(f"{problem_title('ex4-u1')}: meshes $T_h$ of the time slabs containing $t$")
     save(fig, png, pdf)
 
 

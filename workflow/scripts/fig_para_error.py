@@ -2,7 +2,8 @@
 import pandas as pd
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import MARKERS, plt, save
+from fracfem_workflow.plotstyle import (ERROR_LABELS, FAMILY_LABELS, SPACETIME_DOFS, plt,
+                                        problem_title, rate_series, save)
 from fracfem_workflow.report import fit_rate, paper_rate
 
 
@@ -13,21 +14,18 @@ def main(csvs, png, pdf):
         ex = int(df.example.iloc[0])
         for fam, g in df.groupby("family"):
             g = g.sort_values("spacetime_dofs")
-            rate = fit_rate(g.spacetime_dofs, g.error)
-            paper = paper_rate(ex, fam, g.s.iloc[0], g.variant.fillna("").iloc[0])
-            label = f"{fam}: {rate:.3f}" + (f" (paper {paper:.3f})" if paper is not None else "")
-            ax.loglog(g.spacetime_dofs, g.error, marker=MARKERS[fam], label=label)
+            rate_series(ax, g.spacetime_dofs, g.error, fam, g.reference_error.max(),
+                        paper_rate(ex, fam, g.s.iloc[0], g.variant.fillna("").iloc[0]))
             if "eta" in g and g.eta.notna().any():
                 ax.loglog(g.spacetime_dofs, g.eta, ls=":", marker=".", color="k",
-                          label=f"estimator ({fam}): {fit_rate(g.spacetime_dofs, g.eta):.3f}")
+                          label=rf"estimator $\eta$ ({FAMILY_LABELS[fam]}): "
+                                f"{fit_rate(g.spacetime_dofs, g.eta):.3f}")
         ax.axhline(df.reference_error_estimate.iloc[0], color="grey", lw=0.7, ls="--",
                    label="reference's own error (estimate)")
-        var = df.variant.fillna("").iloc[0]
-        ax.set_title(f"Example {ex}{' (' + str(var) + ')' if var else ''}, s = "
-                     f"{df.s.iloc[0]:g}", fontsize=9)
-        ax.set_xlabel("space-time degrees of freedom")
-        ax.legend(fontsize=7)
-    axes[0][0].set_ylabel(r"$\|u_{ref}-u_{h\tau}\|_{L^2(0,T;H^s)}$")
+        ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$")
+        ax.set_xlabel(SPACETIME_DOFS)
+        ax.legend()
+    axes[0][0].set_ylabel(ERROR_LABELS["parabolic"])
     save(fig, png, pdf)
 
 

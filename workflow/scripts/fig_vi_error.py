@@ -2,7 +2,8 @@
 import pandas as pd
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import MARKERS, plt, save
+from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, plt, problem_title, rate_series,
+                                        save)
 from fracfem_workflow.report import fit_rate, paper_rate
 
 
@@ -11,25 +12,28 @@ def panel(ax, df):
     var = df.variant.fillna("").iloc[0]
     for fam, g in df.groupby("family"):
         g = g.sort_values("dofs")
-        paper = paper_rate(ex, fam, g.s.iloc[0], var)
-        label = f"{fam}: {fit_rate(g.dofs, g.error):.3f}"
-        label += f" (paper {paper:.3f})" if paper is not None else ""
-        ax.loglog(g.dofs, g.error, marker=MARKERS[fam], label=label)
+        rate_series(ax, g.dofs, g.error, fam, g.reference_error.max(),
+                    paper_rate(ex, fam, g.s.iloc[0], var),
+                    exclude=g.below_reference.astype(bool))   # E_h < E_ref: no valid error
         if fam == "adaptive":
             ax.loglog(g.dofs, g.eta, ls=":", marker=".", color="k",
-                      label=f"estimator η (adaptive): {fit_rate(g.dofs, g.eta):.3f}")
+                      label=rf"estimator $\eta$ (adaptive): {fit_rate(g.dofs, g.eta):.3f}")
+    ref_err = df.reference_error.max()
+    if ref_err > 0:
+        ax.axhline(ref_err, color="grey", lw=0.7, ls="--",
+                   label="reference's own error (spread of the families' limits)")
     ref = "exact" if ex == 3 and var == "printed" else "extrapolated"
-    ax.set_title(f"Example {ex}{' (' + var + ')' if var else ''}, s = "
-                 f"{df.s.iloc[0]:g}; reference energy {ref}", fontsize=9)
-    ax.set_xlabel("degrees of freedom")
-    ax.set_ylabel(r"$\sqrt{2|E(u_h)-E_{ref}|}$")
-    ax.legend(fontsize=7)
+    ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$; "
+                 f"reference energy {ref}")
+    ax.set_xlabel(DOFS)
+    ax.legend()
 
 
 def main(csvs, png, pdf):
     fig, axes = plt.subplots(1, len(csvs), figsize=(5.5 * len(csvs), 4), squeeze=False)
     for ax, csv in zip(axes[0], csvs):
         panel(ax, pd.read_csv(csv))
+    axes[0][0].set_ylabel(ERROR_LABELS["vi"])   # one label: the panels share the measure
     save(fig, png, pdf)
 
 

@@ -3,7 +3,7 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import plt, save, time_panel
+from fracfem_workflow.plotstyle import ERROR_LABELS, plt, problem_title, save, time_panel
 
 
 def main(csvs, md, png):
@@ -16,8 +16,8 @@ def main(csvs, md, png):
     fastest = []
     for ax, (prob, d) in zip(axes[0], df.groupby("problem")):
         fastest.append({"problem": prob, **time_panel(
-            ax, d, prob, xlabel="wall time [s] (adaptive: all passes so far)")})
-    axes[0][0].set_ylabel(r"$L^2(0,T;H^s)$ error vs reference")
+            ax, d, problem_title(prob), xlabel="wall time [s] (adaptive: all passes so far)")})
+    axes[0][0].set_ylabel(ERROR_LABELS["parabolic"])
     save(fig, png)
     with atomic_path(md) as tmp:
         tmp.write_text("Time each family needs to reach the smallest error all of them reach "

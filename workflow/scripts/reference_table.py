@@ -56,8 +56,9 @@ def main(refs, errors, ex1_csv, family, md):
             f"{family} series lands from it ('reference error' = √(2|E_extrap − E|)). "
             "For Example 2 and the sign-changing Example 3 the reference is that "
             "extrapolation and 'reference error' is the spread √(2|max E − min E|) of the "
-            "extrapolations of the three families (uniform, graded, adaptive); the rate "
-            "ranges are the fitted rates with each of the three limits as the reference. "
+            "extrapolations of the mesh families (uniform, graded, graded-sr, adaptive; "
+            "'families' counts those that exist); the rate ranges are the fitted rates with "
+            "each family's limit in turn as the reference. "
             "'finest error' is the smallest error of any family.\n\n"
             + table.to_markdown(index=False, floatfmt=".4g")
             + "\n\nEfficiency index η / error along the adaptive series (Algorithm B):\n\n"

@@ -26,9 +26,10 @@ logger = script_logger("stability")
 # anisotropic ring meshes disk_graded_rings(n, μ): the n-series at each μ, and at
 # LAYER_N rings the series where only the layer at the circle thins (layer=δ)
 GRADINGS = (2.0, 3.0, 4.0)
-SERIES_N = (4, 6, 8)
-LAYER_N = 4
-LAYERS = (1e-4, 1e-6)
+SERIES_N = (4, 8, 16)
+LONGER = {4.0: (32,)}  # grading 4 continued until its own thinnest layer is below 1e-6
+LAYER_N = 8
+LAYERS = (1e-4, 1e-6, 1e-8, 1e-10)
 DENSE_EIG = 3000      # dense eigvalsh up to this many DOFs, Lanczos (eigsh) above
 
 
@@ -100,7 +101,7 @@ def aniso_rows():
     """The anisotropic study: n-series and thinning outer layer at μ = 2, 3, 4."""
     rows = []
     for mu in GRADINGS:
-        for n in SERIES_N:
+        for n in SERIES_N + LONGER.get(mu, ()):
             rows.append(case(f"disk_graded_rings({n}, {mu:g})", ff.disk_graded_rings(n, mu),
                              0.5, grading=mu, n=n, family="n-series"))
         for layer in LAYERS:
@@ -125,10 +126,10 @@ def figure(df, png):
                     label=f"{lab}: |Δ(f,u_h)| under raised() / err²")
         ax.semilogy(g.s, g.cond / g.cond.max(), "s--", color=colour, mfc="none",
                     label=f"{lab}: cond(A) / largest over s")
-    ax.set_xlabel("order s")
+    ax.set_xlabel("$s$")
     ax.set_ylabel("relative quadrature change; normalised cond(A)")
     ax.legend(fontsize=7)
-    ax.set_title("(a) Example 1 at extreme s, uniform meshes")
+    ax.set_title("(a) Example 1 at extreme $s$, uniform meshes")
     ax = axs["g"]
     sr = df[df.case.str.startswith("grading")]
     ax.semilogy(sr.grading, sr.quad_change_over_err2, "o-", label="shape-regular disk_graded(0.3, μ)")
@@ -136,10 +137,10 @@ def figure(df, png):
     ax.semilogy(an.grading, an.quad_change_over_err2, "s-",
                 label=f"anisotropic disk_graded_rings({SERIES_N[-1]}, μ)")
     ax.axhline(0.01, color="k", lw=0.8, ls=":", label="1 % of err²")
-    ax.set_xlabel("grading exponent μ")
+    ax.set_xlabel("grading exponent $\\mu$")
     ax.set_ylabel("|Δ(f,u_h)| under raised() / err²")
     ax.legend(fontsize=8)
-    ax.set_title("(b) strong grading, s = 0.5")
+    ax.set_title("(b) strong grading, $s = 0.5$")
     colours = dict(zip(GRADINGS, ("C0", "C1", "C2")))
     an = df[df.family.isin(["n-series", "outer layer"])]
     for (mu, fam), g in an.groupby(["grading", "family"]):
@@ -149,7 +150,7 @@ def figure(df, png):
         g = g.sort_values("thinnest_layer", ascending=False)
         style = dict(color=colours[mu], marker="o" if fam == "n-series" else "^",
                      ls="-" if fam == "n-series" else "--")
-        name = (f"μ = {mu:g}: n = {', '.join(str(k) for k in SERIES_N)}" if fam == "n-series"
+        name = (f"μ = {mu:g}: n = {', '.join(str(k) for k in sorted(g.n))}" if fam == "n-series"
                 else f"μ = {mu:g}: n = {LAYER_N}, outer layer δ")
         axs["err"].loglog(g.thinnest_layer, g.error, label=name, **style)
         axs["quad"].loglog(g.thinnest_layer, g.quad_change_over_err2, label=name, **style)
@@ -161,9 +162,9 @@ def figure(df, png):
     axs["cond"].plot([], [], "k:", marker="o", mfc="none", label=r"cond($D^{-1/2} A D^{-1/2}$)")
     axs["err"].yaxis.set_minor_formatter(mticker.FormatStrFormatter("%.2g"))
     for key, ylabel, title in (
-            ("err", "energy error ‖u − u_h‖", "(c) energy error, s = 0.5"),
-            ("quad", "|Δ(f,u_h)| under raised() / err²", "(d) quadrature change, s = 0.5"),
-            ("cond", "condition number (colours as in (c))", "(e) conditioning, s = 0.5")):
+            ("err", "energy error ‖u − u_h‖", "(c) energy error, $s = 0.5$"),
+            ("quad", "|Δ(f,u_h)| under raised() / err²", "(d) quadrature change, $s = 0.5$"),
+            ("cond", "condition number (colours as in (c))", "(e) conditioning, $s = 0.5$")):
         ax = axs[key]
         ax.set_xlabel("thinnest layer 1 − max |x| (interior nodes)")
         ax.set_ylabel(ylabel)

@@ -70,7 +70,7 @@ def main(problem, example, data, reference_family, series, adaptive, csv, json_p
     if info["exact"] is not None:
         info["extrapolation_error"] = float(energy_error(
             info[f"extrapolated_{reference_family}"], info["exact"]))
-    ext = [info[f"extrapolated_{f}"] for f in ("uniform", "graded", "adaptive")
+    ext = [info[f"extrapolated_{f}"] for f in sorted(df.family.unique())
            if np.isfinite(info[f"extrapolated_{f}"])]
     # how uncertain is the reference?  the spread of the families' limits (at least two),
     # and the fitted rates if any of them were taken as the reference instead
@@ -87,6 +87,9 @@ def main(problem, example, data, reference_family, series, adaptive, csv, json_p
         rates[fam] = [min(fits), max(fits)] if fits else None
     info["rate_range_over_references"] = rates
     info["finest_error"] = float(finest)
+    # the reference's own error: 0 when exact, else the spread of the families' limits
+    df["reference_error"] = (0.0 if info["exact"] is not None
+                             else info["extrapolation_spread"] if len(ext) >= 2 else np.nan)
     logger.info("%s", info)
     write_table(with_provenance(df), csv)
     clean = {k: (None if isinstance(v, float) and not np.isfinite(v) else v)

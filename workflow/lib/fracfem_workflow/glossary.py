@@ -22,10 +22,12 @@ GROUPS = [
                    "`parabolic.examples`: `ex4-u1`, `ex4-u2` (u₀ = 1, 2), `ex5`",
         ("example", "variant"): "the paper's example number, and the data set within it "
                                 "(`printed`, `signchange`, `u1`, `u2`; else empty)",
-        "family": "mesh family: `uniform`, `graded` (towards the boundary circle), "
-                  "`adaptive` (Algorithm B for Examples 1–3, C for Examples 4, 5)",
-        "tag": "the run within its family: `L<level>`, `h<h>`, `step<k>` (Algorithm B after "
-               "k refinements), `it<k>` (pass k of Algorithm C)",
+        "family": "mesh family: `uniform`, `graded` (the paper's: anisotropic, 2-graded towards "
+                  "the boundary circle, N ~ h⁻²), `graded-sr` (2-graded but shape-regular, "
+                  "N ~ h⁻²|log h|), `adaptive` (Algorithm B for Examples 1–3, C for "
+                  "Examples 4, 5)",
+        "tag": "the run within its family: `L<level>`, `h<h>` (graded), `r<h>` (graded-sr), "
+               "`step<k>` (Algorithm B after k refinements), `it<k>` (pass k of Algorithm C)",
         "dofs": "free (interior) nodes of the P1 mesh (the fine mesh T_h for the mixed "
                 "problems), for Algorithm C the most over its time slabs "
                 "(`elliptic-errors.md`: range of the adaptive series)",
@@ -58,15 +60,21 @@ GROUPS = [
     }),
     ("Rates (`rates.md`, `rates.csv`)", True, {
         "rate": "least-squares slope of log `error` against log `dofs` (Examples 4, 5: "
-                "`spacetime_dofs`) over the series",
+                "`spacetime_dofs`) over the runs whose error exceeds 3× `reference_error` "
+                "(all runs when the reference is exact); NaN when fewer than two do",
         "paper_rate": "the paper's rate (paper's s and data only)",
         "difference": "`rate` − `paper_rate` (> 0: our error falls more slowly)",
         "n_points": "runs in the fit",
+        "n_excluded": "runs left out: error ≤ 3× `reference_error`",
+        "reference_error": "the reference's own error: 0 if exact; Examples 2, 3 the spread "
+                           "of the families' extrapolated limits; Examples 4, 5 "
+                           "`reference_error_estimate`",
+        "smallest_error": "smallest error of the series",
         ("dof_min", "dof_max"): "smallest and largest DOFs of the fit",
     }),
     ("Error against wall time (`elliptic-error-vs-time.md`, `parabolic-runs.md`)", True, {
         "common error": "the largest of the families' smallest errors",
-        ("t_adaptive [s]", "t_graded [s]", "t_uniform [s]"):
+        ("t_adaptive [s]", "t_graded [s]", "t_graded-sr [s]", "t_uniform [s]"):
             "wall time of the run (Examples 2, 3: with factorisation, Schur complement, "
             "PDAS; adaptive: all steps so far) at which the family first reaches it, "
             "log–log interpolated",
@@ -107,7 +115,8 @@ GROUPS = [
         "finest error": "smallest error of any family",
         "spread of the extrapolations": "√(2|max − min|) of the families' limits",
         "families": "families whose extrapolation exists",
-        ("adaptive rate range", "graded rate range", "uniform rate range"):
+        ("adaptive rate range", "graded rate range", "graded-sr rate range",
+         "uniform rate range"):
             "smallest … largest fitted rate of the family, each family's limit in turn the "
             "reference",
         "ratio": "`reference error` / `finest error`",

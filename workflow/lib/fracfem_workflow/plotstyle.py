@@ -1,14 +1,85 @@
-"""Matplotlib settings and panels shared by the workflow's figures."""
+"""Matplotlib settings and panels shared by the workflow's figures.
+
+One style for every figure: font sizes come from the rc settings below (scripts pass no
+font sizes), axis labels from the names below, colour bars from :func:`colorbar`, and
+every figure is laid out by matplotlib's constrained layout, which keeps labels of
+neighbouring panels apart.
+"""
 from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 
-plt.rcParams.update({"figure.dpi": 120, "savefig.dpi": 150, "font.size": 10,
-                     "axes.grid": True, "grid.alpha": 0.3})
-MARKERS = {"uniform": "o", "graded": "s", "adaptive": "^"}
+plt.rcParams.update({
+    "figure.dpi": 120, "savefig.dpi": 150,
+    "figure.constrained_layout.use": True,
+    "font.size": 10, "axes.titlesize": 10, "axes.labelsize": 10,
+    "xtick.labelsize": 9, "ytick.labelsize": 9, "legend.fontsize": 8,
+    "figure.titlesize": 11,
+    "axes.grid": True, "grid.alpha": 0.3,
+})
+MARKERS = {"uniform": "o", "graded": "s", "graded-sr": "D", "adaptive": "^"}
+# how a legend names a mesh family (the tables keep the short names)
+FAMILY_LABELS = {"uniform": "uniform", "graded": "2-graded (anisotropic)",
+                 "graded-sr": "2-graded, shape-regular", "adaptive": "adaptive"}
+
+
+def rate_series(ax, x, y, family, reference_error=0.0, paper=None, exclude=None):
+    """Plot one family's errors; the fitted rate (runs passing report.fit_mask and not in
+    ``exclude`` only, as in the rate table) and the paper's go in the legend, runs left out
+    of the fit are drawn hollow.  Returns the rate."""
+    from .report import fit_mask, masked_rate
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    keep = fit_mask(y, reference_error)
+    if exclude is not None:
+        keep &= ~np.asarray(exclude, dtype=bool)
+    rate = masked_rate(x, y, keep)
+    label = (f"{FAMILY_LABELS[family]}: {rate:.3f}" if np.isfinite(rate)
+             else f"{FAMILY_LABELS[family]}: no rate (< 2 runs above 3× reference error)")
+    label += f" (paper {paper:.3f})" if paper is not None else ""
+    (line,) = ax.loglog(x, y, marker=MARKERS[family], label=label)
+    if not keep.all():
+        ax.loglog(x[~keep], y[~keep], ls="none", marker=MARKERS[family], mfc="white",
+                  color=line.get_color(), zorder=line.get_zorder() + 1)
+    return rate
+
+
+# Axis labels: what is measured, in the paper's symbols.
+DOFS = "degrees of freedom"
+SPACETIME_DOFS = "space-time degrees of freedom"
+WALL_TIME = "wall time [s]"
+ERROR_LABELS = {
+    "elliptic": r"$\|u-u_h\|_a$",                        # Example 1, exact solution
+    "vi": r"$\sqrt{2\,|E(u_h)-E_{ref}|}$",                # Examples 2, 3: energy distance
+    "parabolic": r"$\|u_{ref}-u_{h\tau}\|_{L^2(0,T;H^s)}$",  # Examples 4, 5
+}
+
+# The problems of the workflow (config keys) in the paper's words.
+PROBLEM_TITLES = {
+    "ex1": "Example 1",
+    "ex2": "Example 2",
+    "ex3-printed": "Example 3, $f = 1$",
+    "ex3-signchange": "Example 3, $f = 1-3|x|^2$",
+    "ex4-u1": "Example 4, $u_0 = 1$",
+    "ex4-u2": r"Example 4, $\tilde u_0 = 2$",
+    "ex5": "Example 5",
+    "thin-obstacle": r"Thin obstacle on $\tilde\Gamma$",
+    "thin-friction": r"Thin friction on $\tilde\Gamma$",
+}
+
+
+def problem_title(problem):
+    """The paper's name of a problem key such as 'ex4-u1' ('Example 4, u₀ = 1').
+
+    Keys without an entry (data sets added to the config) read 'Example n (key)'.
+    """
+    if problem in PROBLEM_TITLES:
+        return PROBLEM_TITLES[problem]
+    number, _, variant = str(problem).removeprefix("ex").partition("-")
+    return f"Example {number}" + (f" ({variant})" if variant else "")
 
 
 # PDFs get no creation date (matplotlib writes the time of the call, or
@@ -27,34 +98,112 @@ def save(fig, *paths):
     plt.close(fig)
 
 
+def colorbar(fig, mappable, ax, label):
+    """A vertical colour bar at the right of ax, laid out with the figure.
+
+    It is drawn in axes inset into ax (beside it, 90% of its drawn height, centred), so
+    it follows ax when an equal aspect shrinks it, and its end tick labels stay below
+    the top of ax: they never run into a title.
+    """
+    cax = ax.inset_axes([1.04, 0.05, 0.04, 0.9])
+    cax.grid(False)
+    return fig.colorbar(mappable, cax=cax, label=label)
+
+
+def surface(ax, p, t, values, cmap="viridis", **kw):
+    """A P1 function on the mesh (p, t) as a 3D surface, axes labelled x₁, x₂."""
+    ax.plot_trisurf(p[0], p[1], values, triangles=t.T, cmap=cmap, **{"linewidth": 0, **kw})
+    ax.set_xlabel("$x_1$")
+    ax.set_ylabel("$x_2$")
+    ax.set_xticks([-1, 0, 1])         # Ω = B₁(0); more ticks crowd the slanted axes
+    ax.set_yticks([-1, 0, 1])
+
+
 def solution_figure(npz_path, title, cmap="viridis"):
     """Load a mixed-problem result; left panel the surface of u_h.
 
     title may refer to {s}, {triangles} and, for parabolic runs, {T}.  Returns
     (data, fig, right axes) for the caller's second panel.
     """
-    import numpy as np
     d = np.load(npz_path)
-    p, t = d["p"], d["t"]
     fig = plt.figure(figsize=(10, 4.2))
     ax = fig.add_subplot(1, 2, 1, projection="3d")
-    ax.plot_trisurf(p[0], p[1], d["u"], triangles=t.T, cmap=cmap, linewidth=0)
-    fields = {"s": float(d["s"]), "triangles": t.shape[1]}
+    surface(ax, d["p"], d["t"], d["u"], cmap=cmap)
+    fields = {"s": float(d["s"]), "triangles": d["t"].shape[1]}
     if "T" in d:                       # parabolic runs: the final time
         fields["T"] = float(d["T"])
     ax.set_title(title.format(**fields))
     return d, fig, fig.add_subplot(1, 2, 2)
 
 
-def multiplier_panel(fig, ax, d, cmap):
-    """λ_H as a piecewise constant on the coarse mesh, with a colour bar."""
+def multiplier_panel(fig, ax, d, cmap, **kw):
+    """λ_H as a piecewise constant on the coarse mesh T_H (flat triangles), with a
+    colour bar; returns the mappable."""
     pc, tc = d["pc"], d["tc"]
-    tp = ax.tripcolor(pc[0], pc[1], tc.T, facecolors=d["lam"], cmap=cmap, edgecolors="none")
-    fig.colorbar(tp, ax=ax, label=r"$\lambda_H$")
+    tp = ax.tripcolor(pc[0], pc[1], tc.T, facecolors=d["lam"], cmap=cmap,
+                      edgecolors="none", **kw)
+    colorbar(fig, tp, ax, r"$\lambda_H$")
+    map_axes(ax)
+    return tp
+
+
+def map_axes(ax):
+    """Axes of a map of Ω: equal scales, x₁, x₂ labels, few ticks."""
     ax.set_aspect("equal")
+    ax.set_xlabel("$x_1$")
+    ax.set_ylabel("$x_2$")
+    ax.locator_params(nbins=5)
+    ax.grid(False)
 
 
-def time_panel(ax, d, name, xlabel="wall time [s]"):
+def friction_states(lam, F, rtol=1e-6):
+    """State of every element for friction: +1 slip with λ_H = F, −1 slip with λ_H = −F,
+    0 stick (|λ_H| < F)."""
+    state = np.zeros(len(lam), dtype=int)
+    state[lam >= F * (1 - rtol)] = 1
+    state[lam <= -F * (1 - rtol)] = -1
+    return state
+
+
+def interface_segments(p, t, label):
+    """Edges of the mesh (p, t) shared by two triangles of different label, as an array
+    of segments (n, 2, 2) for a LineCollection: the boundaries between the regions."""
+    edges = np.concatenate([t[[0, 1]], t[[1, 2]], t[[2, 0]]], axis=1)      # (2, 3 Nt)
+    owner = np.tile(np.arange(t.shape[1]), 3)
+    key = np.sort(edges, axis=0)
+    order = np.lexsort(key)
+    key, owner = key[:, order], owner[order]
+    # an interior edge appears twice, its two occurrences adjacent after sorting
+    pair = np.flatnonzero((key[:, 1:] == key[:, :-1]).all(axis=0))
+    differ = pair[label[owner[pair]] != label[owner[pair + 1]]]
+    return p[:, key[:, differ]].transpose(2, 1, 0)
+
+
+def slip_boundaries(ax, pc, tc, lam, F, **kw):
+    """Draw the edges of T_H = (pc, tc) between elements of different friction state
+    (slip λ_H = F, stick |λ_H| < F, slip λ_H = −F): where λ_H jumps."""
+    from matplotlib.collections import LineCollection
+
+    seg = interface_segments(pc, tc, friction_states(lam, F))
+    kw = {"colors": "k", "linewidths": 1.0, **kw}
+    ax.add_collection(LineCollection(
+        seg, label=r"boundaries between $\lambda_H = F$, $|\lambda_H| < F$, $\lambda_H = -F$",
+        **kw))
+    return len(seg)
+
+
+def plain_log_ticks(axis):
+    """Ticks of a log axis at 1, 2, 5 × 10^k labelled as plain numbers (0.2, 5, 100):
+    the default labels minor ticks of a short range as 3×10⁻¹, 4×10⁻¹, … and they
+    overlap."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.set_minor_formatter(NullFormatter())
+
+
+def time_panel(ax, d, name, xlabel=WALL_TIME):
     """Error against wall time of every family of d on ax; the time each family needs
     for the smallest error all of them reach, as one row of a summary table."""
     from .report import time_to_reach
@@ -65,10 +214,12 @@ def time_panel(ax, d, name, xlabel="wall time [s]"):
         g = g.sort_values("t_wall")
         ax.loglog(g.t_wall, g.error, marker=MARKERS[fam], label=fam)
         times[fam] = time_to_reach(g.t_wall.values, g.error.values, level)
-    ax.axhline(level, color="grey", lw=0.6, ls="--")
-    ax.set_title(name, fontsize=9)
+    ax.axhline(level, color="grey", lw=0.6, ls="--",
+               label="smallest error every family reaches")
+    plain_log_ticks(ax.xaxis)
+    ax.set_title(name)
     ax.set_xlabel(xlabel)
-    ax.legend(fontsize=7)
+    ax.legend()
     best = min(times, key=times.get)
     return {"common error": level, **{f"t_{k} [s]": v for k, v in sorted(times.items())},
             "fastest": best, "speed-up vs slowest": max(times.values()) / times[best]}

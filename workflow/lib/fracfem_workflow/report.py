@@ -4,7 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["PAPER_RATES", "PAPER_S", "paper_rate", "fit_rate", "rate_table", "extrapolate_energy",
+__all__ = ["PAPER_RATES", "PAPER_S", "REFERENCE_MARGIN", "paper_rate", "fit_rate", "fit_mask",
+           "masked_rate",
+           "rate_table", "extrapolate_energy",
            "energy_error", "time_to_reach"]
 
 # error in H^s vs DOFs (parabolic: vs space-time DOFs), paper Section 8
@@ -38,23 +40,58 @@ def fit_rate(dofs, errors) -> float:
     return float(np.polyfit(np.log(dofs), np.log(errors), 1)[0])
 
 
+# A rate is fitted only through runs whose error exceeds REFERENCE_MARGIN times the
+# reference's own error: closer to it, the measured error is as much the reference's as
+# the run's.  Fixed before any rate was looked at; the README states it.
+REFERENCE_MARGIN = 3.0
+
+
+def fit_mask(errors, reference_error=0.0) -> np.ndarray:
+    """The runs a rate is fitted through: error > REFERENCE_MARGIN · reference_error
+    (every run when the reference is exact, reference_error = 0).  A reference whose
+    own error is unknown (NaN) excludes nothing."""
+    errors = np.asarray(errors, dtype=float)
+    ref = float(reference_error) if reference_error is not None else 0.0
+    if not np.isfinite(ref):
+        return np.ones(errors.shape, dtype=bool)
+    return errors > REFERENCE_MARGIN * ref
+
+
+def masked_rate(dofs, errors, keep) -> float:
+    """fit_rate through the runs where ``keep`` holds; NaN when fewer than two do."""
+    keep = np.asarray(keep, dtype=bool)
+    dofs, errors = np.asarray(dofs, dtype=float), np.asarray(errors, dtype=float)
+    return fit_rate(dofs[keep], errors[keep]) if keep.sum() >= 2 else float("nan")
+
+
 def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFrame:
     """One row per (example, variant, family, s): fitted rate next to the paper's.
 
     ``variant`` (optional column) separates data sets of one example; the paper's
     rate is shown for the paper's order s and the variants of PAPER_VARIANTS only.
+    ``reference_error`` (optional column, 0 when absent: exact reference) is the
+    reference's own error; only runs passing :func:`fit_mask` enter the fit, and a
+    row with fewer than two of them has no rate (NaN).
     """
     df = df.copy()
     if "variant" not in df:
         df["variant"] = ""
+    if "reference_error" not in df:
+        df["reference_error"] = 0.0
     df["variant"] = df["variant"].fillna("").astype(str)
     rows = []
     for (ex, var, fam, s), g in df.groupby(["example", "variant", "family", "s"], sort=True):
         paper = paper_rate(ex, fam, s, var)
+        ref_err = float(g.reference_error.max())
+        mask = fit_mask(g[y], ref_err)
+        keep = g[mask]
+        rate = round(masked_rate(g[x], g[y], mask), 3)
+        fitted = keep if len(keep) else g
         rows.append({"example": int(ex), "variant": var, "family": fam, "s": float(s),
-                     "rate": round(fit_rate(g[x], g[y]), 3),
-                     "paper_rate": paper, "n_points": len(g),
-                     "dof_min": int(g[x].min()), "dof_max": int(g[x].max())})
+                     "rate": rate, "paper_rate": paper, "n_points": len(keep),
+                     "n_excluded": len(g) - len(keep),
+                     "dof_min": int(fitted[x].min()), "dof_max": int(fitted[x].max()),
+                     "reference_error": ref_err, "smallest_error": float(g[y].min())})
     return pd.DataFrame(rows)
 
 

@@ -1,0 +1,89 @@
+"""The figure scripts' own logic: DG(0) steps drawn on their intervals (Figure 11), a
+decayed solution shown as zero (Figure 14), the friction figure end to end (Figure 8)."""
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fracfem as ff
+from fracfem_workflow import plotstyle
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def script(name):
+    spec = importlib.util.spec_from_file_location(name, ROOT / "workflow" / "scripts"
+                                                  / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_dg0_steps_start_at_the_initial_time():
+    """End times 0.2, 0.5, 1 with lengths 0.2, 0.3, 0.5: the first step is (0, 0.2]."""
+    fig11 = script("fig11")
+    assert fig11.step_edges([0.2, 0.5, 1.0], [0.2, 0.3, 0.5]).tolist() == [0.0, 0.2, 0.5, 1.0]
+    with pytest.raises(ValueError, match="not contiguous"):
+        fig11.step_edges([0.2, 0.5, 1.0], [0.2, 0.2, 0.5])
+
+
+@pytest.fixture
+def captured():
+    """The figures a script would save, kept open for inspection."""
+    figures = []
+
+    def keep(fig, *paths):
+        figures.append(fig)
+    yield figures, keep
+    for fig in figures:
+        plotstyle.plt.close(fig)
+
+
+def friction_data(tmp_path, U, F):
+    """A friction result on disk_uniform(2): T_H = T_h, λ_H with slip of both signs."""
+    m = ff.disk_uniform(2)
+    r = np.hypot(*m.p[:, m.t].mean(axis=1))
+    lam = np.where(r < 0.4, F, np.where(r > 0.7, -F, 0.3 * F))
+    path = tmp_path / "run.npz"
+    np.savez(path, p=m.p, t=m.t, pc=m.p, tc=m.t, U=U(m.p), u=U(m.p)[1],
+             LAM=np.array([lam] * (len(U(m.p)) - 1)), lam=lam,
+             times=np.linspace(0.0, 1.0, len(U(m.p))), s=0.6)
+    return path
+
+
+def test_figure14_says_a_decayed_solution_is_zero(tmp_path, monkeypatch, captured):
+    """At t = 0.8 |u| ≈ 3e−12 ≤ 1e−10 max|u(0)|: that panel says u ≡ 0 (and draws no
+    round-off); at t = 0.4 (|u| = 1e−9, above) it draws u; λ_H has a colour bar."""
+    fig14 = script("fig14")
+    figures, keep = captured
+    monkeypatch.setattr(fig14, "save", keep)
+    rng = np.random.default_rng(0)
+
+    def U(p):
+        bump = 0.6 * (1 - np.hypot(*p) ** 2)
+        return np.array([bump, 0.1 * bump, 1e-9 * bump, 1e-10 * bump,
+                         3e-12 * rng.standard_normal(p.shape[1]), np.zeros(p.shape[1])])
+    npz = friction_data(tmp_path, U, F=0.1)
+    fig14.main(npz, [0.0, 0.4, 0.8], 0.1, 1e-10, None, None, tmp_path / "t.md")
+    titles = [ax.get_title() for ax in figures[0].axes]
+    assert any("t = 0.80" in s and r"\equiv 0" in s for s in titles)
+    assert not any("t = 0.40" in s and r"\equiv 0" in s for s in titles)
+    bars = [c for ax in figures[0].axes for c in ax.child_axes]        # inset colour bars
+    assert [c.get_ylabel() for c in bars] == [r"$\lambda_H$"]
+
+
+def test_figure8_draws_the_slip_boundaries(tmp_path, monkeypatch, captured):
+    """The boundaries of the slip sets are drawn as mesh edges, one line collection per
+    panel, and the legend names them."""
+    fig08 = script("fig08")
+    figures, keep = captured
+    monkeypatch.setattr(fig08, "save", keep)
+    npz = friction_data(tmp_path, lambda p: np.array([np.zeros(p.shape[1]),
+                                                      1 - np.hypot(*p) ** 2]), F=0.5)
+    fig08.main(npz, "ex3-signchange", 0.5, None, None)
+    fig = figures[0]
+    lines = [c for ax in fig.axes for c in ax.collections
+             if c.get_label().startswith("boundaries between")]
+    assert len(lines) == 2 and len(lines[0].get_segments()) > 0
+    assert fig.legends and "boundaries" in fig.legends[0].get_texts()[0].get_text()
