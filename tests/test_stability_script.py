@@ -3,6 +3,7 @@ import importlib.util
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import fracfem as ff
@@ -46,3 +47,24 @@ def test_a_case_row_has_every_check():
     assert row["roundoff_over_err2"] < 1e-10 and row["residual"] < 1e-13
     assert row["quad_change_over_err2"] < 1e-2
     np.testing.assert_allclose(row["error"] ** 2, ff.disk_energy(0.5) - row["fu_h"])
+
+
+def _rows(errors, quad=1e-4):
+    """An n-series at μ = 2 with the given errors and one outer-layer case."""
+    base = dict(family="n-series", grading=2.0, status="ok", cond=5.0, cond_scaled=3.0,
+                roundoff_over_err2=1e-14, residual=1e-16, max_aspect=10.0, galerkin_ok=True,
+                spd=True)
+    rows = [dict(base, case=f"n{n}", n=n, dofs=4 * n * n, error=e, thinnest_layer=n ** -2.0,
+                 quad_change_over_err2=quad) for n, e in zip((4, 8, 16), errors)]
+    rows.append(dict(base, case="layer", family="outer layer", n=8, dofs=300, error=0.1,
+                     thinnest_layer=1e-6, quad_change_over_err2=quad))
+    return pd.DataFrame(rows)
+
+
+def test_reading_states_what_limits_the_error():
+    text = st.reading(_rows([0.2, 0.1, 0.05]))
+    assert "falls at every step" in text and "last slope against DOFs -0.50" in text
+    assert "the approximation alone" in text
+    stuck = st.reading(_rows([0.2, 0.1, 0.11], quad=0.05))
+    assert "stops falling" in stuck and "At least one case is limited" in stuck
+    assert "0.05 of err²" in stuck

@@ -113,6 +113,46 @@ def aniso_rows():
     return rows
 
 
+def reading(df) -> str:
+    """What limits the error on the anisotropic layers, stated from the table."""
+    an = df[df.family.isin(["n-series", "outer layer"]) & (df.status == "ok")]
+    if an.empty:
+        return "No anisotropic case ran."
+    lines = ["**Reading (anisotropic cases, s = 0.5).**", ""]
+    for mu, g in an[an.family == "n-series"].groupby("grading"):
+        g = g.sort_values("n")
+        errs = ", ".join(f"{e:.3g}" for e in g.error)
+        falls = bool((np.diff(g.error.to_numpy()) < 0).all())
+        slope = np.polyfit(np.log(g.dofs.iloc[-2:]), np.log(g.error.iloc[-2:]), 1)[0]
+        lines.append(f"- μ = {mu:g}, n = {', '.join(str(int(k)) for k in g.n)}: error {errs} "
+                     f"({'falls at every step' if falls else 'stops falling'}; last slope "
+                     f"against DOFs {slope:.2f}), thinnest layer down to "
+                     f"{g.thinnest_layer.min():.2g}.")
+    for mu, g in an[an.family == "outer layer"].groupby("grading"):
+        base = an[(an.family == "n-series") & (an.grading == mu) & (an.n == g.n.iloc[0])]
+        g = g.sort_values("thinnest_layer", ascending=False)
+        plain = f"{base.error.iloc[0]:.3g} without the extra ring, " if len(base) else ""
+        lines.append(f"- μ = {mu:g}, n = {int(g.n.iloc[0])}, outer layer δ = "
+                     f"{', '.join(f'{d:.0e}' for d in g.thinnest_layer)}: error {plain}"
+                     f"{', '.join(f'{e:.3g}' for e in g.error)}.")
+    worst = an.loc[an.quad_change_over_err2.idxmax()]
+    lines += [
+        "",
+        f"Largest quadrature change under `raised()`: {worst.quad_change_over_err2:.2g} of err² "
+        f"({worst.case}; limit 1e-2). Largest cond(A): {an.cond.max():.3g}; largest "
+        f"cond(D^(−1/2) A D^(−1/2)): {an.cond_scaled.max():.3g}; largest round-off: "
+        f"{an.roundoff_over_err2.max():.2g} of err²; largest relative residual: "
+        f"{an.residual.max():.2g}; largest aspect ratio: {an.max_aspect.max():.3g}.",
+    ]
+    ok = (an.quad_change_over_err2.max() < 1e-2 and an.roundoff_over_err2.max() < 1e-6
+          and an.galerkin_ok.all() and an.spd.all())
+    lines.append("Quadrature, conditioning and round-off stay far below the error in every case: "
+                 "the error is limited by the approximation alone." if ok else
+                 "At least one case is limited by quadrature, conditioning or round-off "
+                 "(see the columns above).")
+    return "\n".join(lines)
+
+
 def figure(df, png):
     """Top: extreme s and grading exponent; bottom: the anisotropic layers."""
     fig, axs = plt.subplot_mosaic([["s", "s", "s", "g", "g", "g"],
@@ -193,7 +233,8 @@ def main(md, png, csv, log=None, threads=None):
     an = df.family.notna()
     with atomic_path(md) as tmp:
         tmp.write_text(df.loc[~an, cols].to_markdown(index=False, floatfmt=".3g") + "\n\n"
-                       + df.loc[an, aniso].to_markdown(index=False, floatfmt=".3g") + "\n")
+                       + df.loc[an, aniso].to_markdown(index=False, floatfmt=".3g") + "\n\n"
+                       + reading(df) + "\n")
     figure(df, png)
 
 
