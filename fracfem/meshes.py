@@ -326,7 +326,7 @@ def disk_graded(h: float, grading: float = 2.0) -> MeshTri:
     return mesh
 
 
-def disk_graded_rings(n: int, grading: float = 2.0) -> MeshTri:
+def disk_graded_rings(n: int, grading: float = 2.0, *, layer: float | None = None) -> MeshTri:
     """Anisotropic graded mesh of the unit disk: rings refined toward the circle.
 
     Thin triangles near the circle (aspect ratio ~ n^(grading−1));
@@ -348,6 +348,11 @@ def disk_graded_rings(n: int, grading: float = 2.0) -> MeshTri:
         Grading exponent in [1, 10]; 1 gives a quasi-uniform mesh, 2 the usual
         2-graded mesh for the fractional Laplacian.  ``n**(-grading)`` must be
         at least 1e-10 (e.g. n <= 10 for grading 10).
+    layer : float, optional
+        Thickness of the layer at the circle, in [1e-10, n**(-grading) / 2]: one
+        more ring, at radius ``1 - layer`` with the boundary ring's nodes, splits
+        the outermost layer, and the rest of the mesh is unchanged (the thinnest
+        layer set independently of n and grading).  None: no extra ring.
     """
     n = _check_int("n", n, 2, 2000)
     grading = _check_float("grading", grading, 1.0, 10.0)
@@ -356,18 +361,22 @@ def disk_graded_rings(n: int, grading: float = 2.0) -> MeshTri:
                          f"n**(-grading) = {float(n) ** -grading:.1e} < 1e-10, not resolvable "
                          f"in double precision; decrease n or grading")
     r = 1.0 - (1.0 - np.arange(n + 1) / n) ** grading
+    if layer is not None:
+        # half the outer layer at most, so the new ring stays clear of ring n - 1
+        layer = _check_float("layer", layer, 1e-10, 0.5 * float(n) ** -grading)
+        r = np.concatenate([r[:-1], [1.0 - layer, 1.0]])
     m = _ring_counts(r, n)
     start = np.concatenate([[0], np.cumsum(m)])
-    rings = [np.arange(start[k], start[k + 1]) for k in range(n + 1)]
+    rings = [np.arange(start[k], start[k + 1]) for k in range(len(r))]
     theta = np.concatenate([2 * np.pi * np.arange(mk) / mk for mk in m])
     rad = np.repeat(r, m)
     p = np.vstack([rad * np.cos(theta), rad * np.sin(theta)])
     ring1 = rings[1]
     tris = [np.vstack([np.zeros_like(ring1), ring1, np.roll(ring1, -1)])]
-    tris += [_merge_rings(rings[k], rings[k + 1]) for k in range(1, n)]
+    tris += [_merge_rings(rings[k], rings[k + 1]) for k in range(1, len(r) - 1)]
     t = np.hstack(tris)
-    logger.debug("disk_graded_rings(n=%d, grading=%g): %d nodes, %d triangles, %d boundary nodes",
-                 n, grading, p.shape[1], t.shape[1], m[-1])
+    logger.debug("disk_graded_rings(n=%d, grading=%g, layer=%s): %d nodes, %d triangles, "
+                 "%d boundary nodes", n, grading, layer, p.shape[1], t.shape[1], m[-1])
     return mesh_from_arrays(p, t)
 
 

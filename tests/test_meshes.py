@@ -164,6 +164,40 @@ def test_disk_graded_rejects(kwargs, match):
         disk_graded_rings(**kwargs)
 
 
+@pytest.mark.parametrize("n, grading, layer", [(2, 1.0, 0.25), (8, 2.0, 1e-6), (8, 4.0, 1e-10),
+                                               (12, 3.0, 1e-4)])
+def test_disk_graded_layer_splits_only_the_outer_layer(n, grading, layer):
+    """One more ring at radius 1 - layer with the boundary ring's nodes; all else unchanged."""
+    plain = disk_graded_rings(n, grading)
+    m = disk_graded_rings(n, grading, layer=layer)
+    validate_mesh(m.p, m.t)
+    assert np.all(signed_areas(m) > 0)
+    assert_conforming_disk(m)
+    nb = len(plain.boundary_nodes())
+    assert m.p.shape[1] == plain.p.shape[1] + nb
+    assert m.t.shape[1] == plain.t.shape[1] + 2 * nb
+    # the plain mesh's nodes come first, in the same places
+    np.testing.assert_array_equal(m.p[:, :plain.p.shape[1] - nb], plain.p[:, :-nb])
+    r = np.linalg.norm(m.p[:, interior_nodes(m)], axis=0)
+    np.testing.assert_allclose(1 - r.max(), layer, rtol=1e-5)
+    new = np.abs(np.linalg.norm(m.p, axis=0) - (1 - layer)) < 0.1 * layer
+    assert new.sum() == nb
+    np.testing.assert_allclose(np.sort(np.arctan2(m.p[1, new], m.p[0, new]) % (2 * np.pi)),
+                               2 * np.pi * np.arange(nb) / nb, atol=1e-12)
+
+
+@pytest.mark.parametrize("layer, match", [
+    (1e-11, r"layer .*\[1e-10, 0.0078125\]"),
+    (0.01, r"layer .*\[1e-10, 0.0078125\]"),
+    (float("nan"), r"layer .*nan"),
+    ("1e-6", r"layer"),
+    (True, r"layer"),
+])
+def test_disk_graded_layer_rejects(layer, match):
+    with pytest.raises(ValueError, match=match):
+        disk_graded_rings(8, 2.0, layer=layer)
+
+
 # ------------------------------------------------------------ disk_graded_aniso
 
 

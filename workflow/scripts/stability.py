@@ -1,12 +1,18 @@
-"""Stability study, Example 1: extreme s and strong grading (issue 6, part 1).
+"""Stability study, Example 1: extreme s, strong grading, and anisotropic layers down to 1e-6.
 
 Each case reports finite values and the expected structure (Galerkin bound,
-positive definiteness, quadrature convergence) or the error it raised.
+positive definiteness, quadrature convergence) or the error it raised.  The
+anisotropic part separates what limits the error on thin boundary layers:
+approximation, quadrature (change under ``QuadratureOptions().raised()``),
+conditioning (of A and of D^(-1/2) A D^(-1/2)) or round-off (two solves).
 """
 import time
 
+import matplotlib.ticker as mticker
 import numpy as np
 import pandas as pd
+import scipy.linalg as sla
+from scipy.sparse.linalg import eigsh
 
 import fracfem as ff
 from fracfem.meshes import min_angle
@@ -17,62 +23,194 @@ from fracfem_workflow.runs import start
 
 logger = script_logger("stability")
 
+# anisotropic ring meshes disk_graded_rings(n, μ): the n-series at each μ, and at
+# LAYER_N rings the series where only the layer at the circle thins (layer=δ)
+GRADINGS = (2.0, 3.0, 4.0)
+SERIES_N = (4, 8, 16)
+LONGER = {4.0: (32,)}  # grading 4 continued until its own thinnest layer is below 1e-6
+LAYER_N = 8
+LAYERS = (1e-4, 1e-6, 1e-8, 1e-10)
+DENSE_EIG = 3000      # dense eigvalsh up to this many DOFs, Lanczos (eigsh) above
 
-def case(label, mesh, s):
-    row = {"case": label, "s": s, "dofs": len(mesh.interior_nodes()),
-           "min_angle": min_angle(mesh)}
+
+def extreme_eigenvalues(A):
+    """(λ_min, λ_max) of a symmetric positive definite matrix."""
+    if len(A) <= DENSE_EIG:
+        ev = np.linalg.eigvalsh(A)
+        return ev[0], ev[-1]
+    top = eigsh(A, k=1, which="LA", return_eigenvectors=False, tol=1e-6)[0]
+    # shift-invert about 0: the smallest eigenvalue converges in a few steps
+    low = eigsh(A, k=1, sigma=0.0, which="LM", return_eigenvectors=False, tol=1e-6)[0]
+    return low, top
+
+
+def mesh_columns(mesh):
+    """DOFs, shortest edge, smallest angle, thinnest layer and largest aspect ratio."""
     p, t = mesh.p, mesh.t
+    free = mesh.interior_nodes()
     e = np.stack([np.linalg.norm(p[:, t[(i + 1) % 3]] - p[:, t[i]], axis=0) for i in range(3)])
-    row["h_min"] = float(e.min())
-    t0 = time.perf_counter()
+    d1, d2 = p[:, t[1]] - p[:, t[0]], p[:, t[2]] - p[:, t[0]]
+    area2 = np.abs(d1[0] * d2[1] - d1[1] * d2[0])
+    diam = e.max(axis=0)
+    return {"dofs": len(free), "h_min": float(e.min()), "min_angle": min_angle(mesh),
+            "thinnest_layer": float(1.0 - np.linalg.norm(p[:, free], axis=0).max()),
+            # longest edge over smallest height
+            "max_aspect": float((diam ** 2 / area2).max())}
+
+
+def case(label, mesh, s, **extra):
+    """One Example 1 solve with every check; the row of the table."""
+    row = {"case": label, "s": s, **extra, **mesh_columns(mesh)}
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
         free = mesh.interior_nodes()
         b = ff.load_vector(mesh, 1.0)[free]
-        fu = []
-        for q in (ff.QuadratureOptions(), ff.QuadratureOptions().raised()):
-            A = ff.stiffness_matrix(mesh, s, quadrature=q)[np.ix_(free, free)]
-            fu.append(float(b @ np.linalg.solve(A, b)))
-            if len(fu) == 1:
-                ev = np.linalg.eigvalsh(A)
-                row.update(lambda_min=ev[0], cond=ev[-1] / ev[0])
-        exact = ff.disk_energy(s)
-        err2 = exact - fu[0]
-        row.update(fu_h=fu[0], error=np.sqrt(err2) if err2 > 0 else np.nan,
-                   galerkin_ok=bool(0 < err2), finite=bool(np.isfinite(fu).all()),
-                   spd=bool(row["lambda_min"] > 0),
-                   quad_change_over_err2=abs(fu[1] - fu[0]) / err2 if err2 > 0 else np.nan,
-                   status="ok")
+        A = ff.stiffness_matrix(mesh, s)[np.ix_(free, free)]
+        x = np.linalg.solve(A, b)
+        fu = float(b @ x)
+        lo, hi = extreme_eigenvalues(A)
+        # the same (f,u_h) through the Cholesky factor of D^(-1/2) A D^(-1/2)
+        dg = np.sqrt(np.diag(A))
+        S = A / dg[:, None] / dg[None, :]
+        slo, shi = extreme_eigenvalues(S)
+        fu_chol = float((b / dg) @ sla.cho_solve(sla.cho_factor(S), b / dg))
+        residual = float(np.linalg.norm(b - A @ x) / np.linalg.norm(b))
+        del S
+        Ar = ff.stiffness_matrix(mesh, s, quadrature=ff.QuadratureOptions().raised())
+        fu_raised = float(b @ np.linalg.solve(Ar[np.ix_(free, free)], b))
+        del Ar
+        err2 = ff.disk_energy(s) - fu
+        ok = err2 > 0
+        row.update(fu_h=fu, error=np.sqrt(err2) if ok else np.nan, galerkin_ok=bool(ok),
+                   finite=bool(np.isfinite([fu, fu_chol, fu_raised]).all()),
+                   lambda_min=lo, lambda_max=hi, spd=bool(lo > 0), cond=hi / lo,
+                   cond_scaled=shi / slo,
+                   quad_change_over_err2=abs(fu_raised - fu) / err2 if ok else np.nan,
+                   roundoff_over_err2=abs(fu_chol - fu) / err2 if ok else np.nan,
+                   residual=residual, status="ok")
     except (ValueError, np.linalg.LinAlgError) as err:
         row.update(status=f"refused: {err}")
     row["seconds"] = time.perf_counter() - t0
-    logger.info("%s, s = %g: %s, %.1f s", label, s, row["status"], row["seconds"])
+    row["cpu_seconds"] = time.process_time() - c0   # all threads; the wall time on a busy machine
+    logger.info("%s, s = %g: %s, %.1f s (%.1f s CPU)", label, s, row["status"], row["seconds"],
+                row["cpu_seconds"])
     return row
 
 
-def plot(df, png):
-    """Quadrature change and conditioning across s (left), quadrature change across the
-    grading exponent (right)."""
-    fig, axs = plt.subplots(1, 2, figsize=(10, 4))
+def aniso_rows():
+    """The anisotropic study: n-series and thinning outer layer at μ = 2, 3, 4."""
+    rows = []
+    for mu in GRADINGS:
+        for n in SERIES_N + LONGER.get(mu, ()):
+            rows.append(case(f"disk_graded_rings({n}, {mu:g})", ff.disk_graded_rings(n, mu),
+                             0.5, grading=mu, n=n, family="n-series"))
+        for layer in LAYERS:
+            if layer > 0.5 * LAYER_N ** -mu:
+                continue
+            rows.append(case(f"disk_graded_rings({LAYER_N}, {mu:g}, layer={layer:g})",
+                             ff.disk_graded_rings(LAYER_N, mu, layer=layer), 0.5,
+                             grading=mu, n=LAYER_N, family="outer layer"))
+    return rows
+
+
+def reading(df) -> str:
+    """What limits the error on the anisotropic layers, stated from the table."""
+    an = df[df.family.isin(["n-series", "outer layer"]) & (df.status == "ok")]
+    if an.empty:
+        return "No anisotropic case ran."
+    lines = ["**Reading (anisotropic cases, s = 0.5).**", ""]
+    for mu, g in an[an.family == "n-series"].groupby("grading"):
+        g = g.sort_values("n")
+        errs = ", ".join(f"{e:.3g}" for e in g.error)
+        falls = bool((np.diff(g.error.to_numpy()) < 0).all())
+        slope = np.polyfit(np.log(g.dofs.iloc[-2:]), np.log(g.error.iloc[-2:]), 1)[0]
+        lines.append(f"- μ = {mu:g}, n = {', '.join(str(int(k)) for k in g.n)}: error {errs} "
+                     f"({'falls at every step' if falls else 'stops falling'}; last slope "
+                     f"against DOFs {slope:.2f}), thinnest layer down to "
+                     f"{g.thinnest_layer.min():.2g}.")
+    for mu, g in an[an.family == "outer layer"].groupby("grading"):
+        base = an[(an.family == "n-series") & (an.grading == mu) & (an.n == g.n.iloc[0])]
+        g = g.sort_values("thinnest_layer", ascending=False)
+        plain = f"{base.error.iloc[0]:.3g} without the extra ring, " if len(base) else ""
+        lines.append(f"- μ = {mu:g}, n = {int(g.n.iloc[0])}, outer layer δ = "
+                     f"{', '.join(f'{d:.0e}' for d in g.thinnest_layer)}: error {plain}"
+                     f"{', '.join(f'{e:.3g}' for e in g.error)}.")
+    worst = an.loc[an.quad_change_over_err2.idxmax()]
+    lines += [
+        "",
+        f"Largest quadrature change under `raised()`: {worst.quad_change_over_err2:.2g} of err² "
+        f"({worst.case}; limit 1e-2). Largest cond(A): {an.cond.max():.3g}; largest "
+        f"cond(D^(−1/2) A D^(−1/2)): {an.cond_scaled.max():.3g}; largest round-off: "
+        f"{an.roundoff_over_err2.max():.2g} of err²; largest relative residual: "
+        f"{an.residual.max():.2g}; largest aspect ratio: {an.max_aspect.max():.3g}.",
+    ]
+    ok = (an.quad_change_over_err2.max() < 1e-2 and an.roundoff_over_err2.max() < 1e-6
+          and an.galerkin_ok.all() and an.spd.all())
+    lines.append("Quadrature, conditioning and round-off stay far below the error in every case: "
+                 "the error is limited by the approximation alone." if ok else
+                 "At least one case is limited by quadrature, conditioning or round-off "
+                 "(see the columns above).")
+    return "\n".join(lines)
+
+
+def figure(df, png):
+    """Top: extreme s and grading exponent; bottom: the anisotropic layers."""
+    fig, axs = plt.subplot_mosaic([["s", "s", "s", "g", "g", "g"],
+                                   ["err", "err", "quad", "quad", "cond", "cond"]],
+                                  figsize=(14, 8.5), layout="constrained")
     sw = df[df.case.str.startswith("s sweep")]
-    for lab, g in sw.groupby("case"):
-        mesh = "uniform mesh, level " + lab.split("(")[1].rstrip(")")
-        axs[0].semilogy(g.s, g.quad_change_over_err2, "o-",
-                        label=f"{mesh}: quadrature change / err²")
-        axs[0].semilogy(g.s, g.cond / g.cond.max(), "s--",
-                        label=f"{mesh}: condition number / its maximum")
-    axs[0].set_xlabel("$s$")
-    axs[0].set_ylabel("relative size")
-    axs[0].legend()
-    axs[0].set_title("Example 1 at extreme $s$")
-    gr = df[df.case.str.startswith("grading")]
-    for kind, g in gr.groupby(gr.case.str.contains("rings")):
-        axs[1].semilogy([float(c.split()[1][:-1]) for c in g.case], g.quad_change_over_err2,
-                        "o-", label="anisotropic rings" if kind else "shape-regular")
-    axs[1].axhline(0.01, color="k", lw=0.8, ls=":", label="1% of err²")
-    axs[1].set_xlabel(r"grading exponent $\mu$")
-    axs[1].set_ylabel("quadrature change / err²")
-    axs[1].legend()
-    axs[1].set_title("Strong grading, $s = 0.5$")
+    ax = axs["s"]
+    for colour, (lab, g) in zip(("C0", "C3"), sw.groupby("case")):
+        lab = lab.removeprefix("s sweep, ")
+        ax.semilogy(g.s, g.quad_change_over_err2, "o-", color=colour,
+                    label=f"{lab}: |Δ(f,u_h)| under raised() / err²")
+        ax.semilogy(g.s, g.cond / g.cond.max(), "s--", color=colour, mfc="none",
+                    label=f"{lab}: cond(A) / largest over s")
+    ax.set_xlabel("$s$")
+    ax.set_ylabel("relative quadrature change; normalised cond(A)")
+    ax.legend(fontsize=7)
+    ax.set_title("(a) Example 1 at extreme $s$, uniform meshes")
+    ax = axs["g"]
+    sr = df[df.case.str.startswith("grading")]
+    ax.semilogy(sr.grading, sr.quad_change_over_err2, "o-", label="shape-regular disk_graded(0.3, μ)")
+    an = df[(df.family == "n-series") & (df.n == SERIES_N[-1])]
+    ax.semilogy(an.grading, an.quad_change_over_err2, "s-",
+                label=f"anisotropic disk_graded_rings({SERIES_N[-1]}, μ)")
+    ax.axhline(0.01, color="k", lw=0.8, ls=":", label="1 % of err²")
+    ax.set_xlabel("grading exponent $\\mu$")
+    ax.set_ylabel("|Δ(f,u_h)| under raised() / err²")
+    ax.legend(fontsize=8)
+    ax.set_title("(b) strong grading, $s = 0.5$")
+    colours = dict(zip(GRADINGS, ("C0", "C1", "C2")))
+    an = df[df.family.isin(["n-series", "outer layer"])]
+    for (mu, fam), g in an.groupby(["grading", "family"]):
+        if fam == "outer layer":  # the thinning layer starts from the plain mesh
+            base = an[(an.family == "n-series") & (an.grading == mu) & (an.n == LAYER_N)]
+            g = pd.concat([base, g])
+        g = g.sort_values("thinnest_layer", ascending=False)
+        style = dict(color=colours[mu], marker="o" if fam == "n-series" else "^",
+                     ls="-" if fam == "n-series" else "--")
+        name = (f"μ = {mu:g}: n = {', '.join(str(k) for k in sorted(g.n))}" if fam == "n-series"
+                else f"μ = {mu:g}: n = {LAYER_N}, outer layer δ")
+        axs["err"].loglog(g.thinnest_layer, g.error, label=name, **style)
+        axs["quad"].loglog(g.thinnest_layer, g.quad_change_over_err2, label=name, **style)
+        axs["cond"].semilogx(g.thinnest_layer, g.cond, **style)
+        axs["cond"].semilogx(g.thinnest_layer, g.cond_scaled, color=colours[mu],
+                             marker=style["marker"], ls=":", mfc="none")
+    axs["quad"].axhline(0.01, color="k", lw=0.8, ls=":", label="1 % of err²")
+    axs["cond"].plot([], [], "k-", marker="o", label="cond(A), free nodes")
+    axs["cond"].plot([], [], "k:", marker="o", mfc="none", label=r"cond($D^{-1/2} A D^{-1/2}$)")
+    axs["err"].yaxis.set_minor_formatter(mticker.FormatStrFormatter("%.2g"))
+    for key, ylabel, title in (
+            ("err", "energy error ‖u − u_h‖", "(c) energy error, $s = 0.5$"),
+            ("quad", "|Δ(f,u_h)| under raised() / err²", "(d) quadrature change, $s = 0.5$"),
+            ("cond", "condition number (colours as in (c))", "(e) conditioning, $s = 0.5$")):
+        ax = axs[key]
+        ax.set_xlabel("thinnest layer 1 − max |x| (interior nodes)")
+        ax.set_ylabel(ylabel)
+        ax.set_title(title)
+        ax.invert_xaxis()
+        ax.legend(fontsize=7)
     save(fig, png)
 
 
@@ -83,16 +221,21 @@ def main(md, png, csv, log=None, threads=None):
         for level in (3, 4):
             rows.append(case(f"s sweep, disk_uniform({level})", ff.disk_uniform(level), s))
     for mu in (1.0, 2.0, 3.0, 4.0):
-        rows.append(case(f"grading {mu:g}, disk_graded(0.3)", ff.disk_graded(0.3, mu), 0.5))
-        rows.append(case(f"grading {mu:g}, disk_graded_rings(12)",
-                         ff.disk_graded_rings(12, mu), 0.5))
+        rows.append(case(f"grading {mu:g}, disk_graded(0.3)", ff.disk_graded(0.3, mu), 0.5,
+                         grading=mu))
+    rows += aniso_rows()
     df = pd.DataFrame(rows)
     write_table(with_provenance(df), csv)
     cols = ["case", "s", "dofs", "h_min", "min_angle", "error", "galerkin_ok", "spd", "cond",
             "quad_change_over_err2", "status"]
+    aniso = ["case", "dofs", "thinnest_layer", "max_aspect", "error", "quad_change_over_err2",
+             "cond", "cond_scaled", "roundoff_over_err2", "residual", "seconds", "status"]
+    an = df.family.notna()
     with atomic_path(md) as tmp:
-        tmp.write_text(df[cols].to_markdown(index=False, floatfmt=".3g") + "\n")
-    plot(df, png)
+        tmp.write_text(df.loc[~an, cols].to_markdown(index=False, floatfmt=".3g") + "\n\n"
+                       + df.loc[an, aniso].to_markdown(index=False, floatfmt=".3g") + "\n\n"
+                       + reading(df) + "\n")
+    figure(df, png)
 
 
 if __name__ == "__main__":

@@ -149,7 +149,14 @@ GROUPS = [
         "galerkin_ok": "(f,u_h) < (f,u), the Galerkin bound",
         "spd": "the free block of the stiffness matrix has a positive smallest eigenvalue",
         "cond": "its condition number λ_max / λ_min",
+        "cond_scaled": "condition number of D^(−1/2) A D^(−1/2), D the diagonal of that block",
         "quad_change_over_err2": "as `change_over_error_squared`",
+        "thinnest_layer": "distance of the interior nodes nearest to the circle from it: the "
+                          "thickness of the thinnest layer of a ring mesh",
+        "max_aspect": "largest aspect ratio of a triangle, longest edge / smallest height",
+        "roundoff_over_err2": "|(f,u_h) by LU of A − (f,u_h) by the Cholesky factor of "
+                              "D^(−1/2) A D^(−1/2)| / err²: round-off of the solve",
+        "residual": "‖b − A u‖ / ‖b‖ of the LU solve",
         "finite": "every computed value is finite",
         "energy growth": "largest increase of the discrete energy between time steps, "
                          "relative to its largest value",

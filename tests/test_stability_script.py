@@ -1,0 +1,70 @@
+"""workflow/scripts/stability.py: the measurements of one stability case."""
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import fracfem as ff
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location(
+    "stability", ROOT / "workflow" / "scripts" / "stability.py")
+st = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(st)
+
+
+def test_lanczos_eigenvalues_match_the_dense_ones(monkeypatch):
+    rng = np.random.default_rng(0)
+    q, _ = np.linalg.qr(rng.standard_normal((200, 200)))
+    ev = np.geomspace(1e-6, 1.0, 200)
+    A = (q * ev) @ q.T
+    dense = st.extreme_eigenvalues(A)
+    monkeypatch.setattr(st, "DENSE_EIG", 100)
+    lanczos = st.extreme_eigenvalues(A)
+    np.testing.assert_allclose(dense, (1e-6, 1.0), rtol=1e-8)
+    np.testing.assert_allclose(lanczos, dense, rtol=1e-5)
+
+
+@pytest.mark.parametrize("layer", [1e-6, 1e-10])
+def test_mesh_columns_see_the_thin_outer_layer(layer):
+    n = 6
+    cols = st.mesh_columns(ff.disk_graded_rings(n, 4.0, layer=layer))
+    np.testing.assert_allclose(cols["thinnest_layer"], layer, rtol=1e-5)
+    # the layer's triangles: a chord of the boundary ring over a height ~ layer
+    chord = 2 * np.sin(np.pi / np.ceil(2 * np.pi * n))
+    assert 0.9 * chord / layer < cols["max_aspect"] < 1.5 * chord / layer
+
+
+def test_a_case_row_has_every_check():
+    row = st.case("uniform", ff.disk_uniform(1), 0.5, family="test")
+    assert row["status"] == "ok" and row["family"] == "test"
+    assert row["galerkin_ok"] and row["spd"] and row["finite"]
+    assert row["dofs"] == len(ff.disk_uniform(1).interior_nodes())
+    assert 1 <= row["cond_scaled"] and 1 <= row["cond"]
+    # the two solves agree to round-off, the raised quadrature to far below 1 % of err²
+    assert row["roundoff_over_err2"] < 1e-10 and row["residual"] < 1e-13
+    assert row["quad_change_over_err2"] < 1e-2
+    np.testing.assert_allclose(row["error"] ** 2, ff.disk_energy(0.5) - row["fu_h"])
+
+
+def _rows(errors, quad=1e-4):
+    """An n-series at μ = 2 with the given errors and one outer-layer case."""
+    base = dict(family="n-series", grading=2.0, status="ok", cond=5.0, cond_scaled=3.0,
+                roundoff_over_err2=1e-14, residual=1e-16, max_aspect=10.0, galerkin_ok=True,
+                spd=True)
+    rows = [dict(base, case=f"n{n}", n=n, dofs=4 * n * n, error=e, thinnest_layer=n ** -2.0,
+                 quad_change_over_err2=quad) for n, e in zip((4, 8, 16), errors)]
+    rows.append(dict(base, case="layer", family="outer layer", n=8, dofs=300, error=0.1,
+                     thinnest_layer=1e-6, quad_change_over_err2=quad))
+    return pd.DataFrame(rows)
+
+
+def test_reading_states_what_limits_the_error():
+    text = st.reading(_rows([0.2, 0.1, 0.05]))
+    assert "falls at every step" in text and "last slope against DOFs -0.50" in text
+    assert "the approximation alone" in text
+    stuck = st.reading(_rows([0.2, 0.1, 0.11], quad=0.05))
+    assert "stops falling" in stuck and "At least one case is limited" in stuck
+    assert "0.05 of err²" in stuck
