@@ -190,7 +190,7 @@ def figure(df, png):
         g = g.sort_values("thinnest_layer", ascending=False)
         style = dict(color=colours[mu], marker="o" if fam == "n-series" else "^",
                      ls="-" if fam == "n-series" else "--")
-        name = (f"μ = {mu:g}: n = {', '.join(str(k) for k in sorted(g.n))}" if fam == "n-series"
+        name = (f"μ = {mu:g}: n = {', '.join(str(int(k)) for k in sorted(g.n))}" if fam == "n-series"
                 else f"μ = {mu:g}: n = {LAYER_N}, outer layer δ")
         axs["err"].loglog(g.thinnest_layer, g.error, label=name, **style)
         axs["quad"].loglog(g.thinnest_layer, g.quad_change_over_err2, label=name, **style)
