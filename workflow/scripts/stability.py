@@ -1,4 +1,4 @@
-"""Stability study, Example 1: extreme s, strong grading, and anisotropic layers down to 1e-6.
+"""Stability study, Example 1: extreme s, strong grading, and anisotropic layers down to 1e-10.
 
 Each case reports finite values and the expected structure (Galerkin bound,
 positive definiteness, quadrature convergence) or the error it raised.  The
