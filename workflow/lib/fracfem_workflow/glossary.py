@@ -205,6 +205,10 @@ GROUPS = [
                                                               "timings (2 MPI processes, 1), "
                                                               "remarks",
         "order": "Chebyshev interpolation order",
+        ("t_trees", "t_near", "t_singular", "t_coupling", "t_far_diagonal", "t_exterior"):
+            "assembly phases, seconds: cluster and block trees; separated near pairs; "
+            "touching pairs and close thin pairs; far-block coupling matrices; the far-field diagonal terms; "
+            "the exterior term κ",
         "preconditioner_s": "setting up the preconditioner",
         "pdas_steps": "PDAS active-set steps",
         "inner_iterations": "PCG iterations over all PDAS steps",
