@@ -17,7 +17,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ._kernels import _cos_power_integral as _kernels_cos_power
 
 
 # ---------------------------------------------------------------- Chebyshev
@@ -247,23 +246,32 @@ def upward(W, E, level_nodes, level_ptr, child0, child1, m):  # pragma: no cover
 @njit(cache=True, parallel=True)
 def couple_grouped(W, K, grp_ptr, blk_rows, blk_cols, nc, nchunks):  # pragma: no cover
     """G[σ] = Σ_{admissible (σ, τ)} K_b W[τ] with the blocks grouped by their
-    coupling matrix (grp_ptr[g]:grp_ptr[g+1] use K[g]): each K is read once and
-    stays in cache.  Returns per-chunk sums (nchunks, nc, nrhs, p)."""
+    coupling matrix (grp_ptr[g]:grp_ptr[g+1] use K[g]): the W[τ] of a group
+    are gathered and multiplied by K[g] in one matrix product (BLAS).
+    Returns per-chunk sums (nchunks, nc, nrhs, p)."""
     nrhs = W.shape[1]
     p = W.shape[2]
     ng = grp_ptr.shape[0] - 1
     G = np.zeros((nchunks, nc, nrhs, p))
+    most = 1
+    for g in range(ng):
+        most = max(most, grp_ptr[g + 1] - grp_ptr[g])
     for c in prange(nchunks):
+        buf = np.empty((most * nrhs, p))
         for g in range(c, ng, nchunks):
-            for q in range(grp_ptr[g], grp_ptr[g + 1]):
-                sig = blk_rows[q]
-                tau = blk_cols[q]
-                for a in range(p):
-                    for r in range(nrhs):
-                        acc = 0.0
-                        for cc in range(p):
-                            acc += K[g, a, cc] * W[tau, r, cc]
-                        G[c, sig, r, a] += acc
+            q0 = grp_ptr[g]
+            nb = grp_ptr[g + 1] - q0
+            for q in range(nb):
+                tau = blk_cols[q0 + q]
+                for r in range(nrhs):
+                    for k in range(p):
+                        buf[q * nrhs + r, k] = W[tau, r, k]
+            R = np.dot(buf[:nb * nrhs], K[g].T)
+            for q in range(nb):
+                sig = blk_rows[q0 + q]
+                for r in range(nrhs):
+                    for a in range(p):
+                        G[c, sig, r, a] += R[q * nrhs + r, a]
     return G
 
 
@@ -490,7 +498,48 @@ def scatter_csr(indptr, indices, data, nodes, local, factor):  # pragma: no cove
 
 
 @njit(cache=True)
-def _edge_term(x0, x1, edges, e, g, s, gl_x, gl_w, gj_x, gj_w, full, far_x, far_w,
+def _clenshaw(c, y):  # pragma: no cover
+    """Σ_k c[k] T_k(4y − 1): a Chebyshev series on y ∈ [0, 1/2]."""
+    xi = 4.0 * y - 1.0
+    b1 = 0.0
+    b2 = 0.0
+    for k in range(c.shape[0] - 1, 0, -1):
+        b0 = 2.0 * xi * b1 - b2 + c[k]
+        b2 = b1
+        b1 = b0
+    return xi * b1 - b2 + c[0]
+
+
+@njit(cache=True)
+def _cos_power_difference(t1, t2, ad, s2, ca, cb, full):  # pragma: no cover
+    """F(φ₂) − F(φ₁), F(φ) = ∫₀^φ cos^(2s), φ_i = arctan(t_i/ad), by the
+    Chebyshev series of :func:`fracfem.compressed.cos_power_series`: with
+    v = sin φ and c = cos φ, F = v·Q(v²) for v² ≤ 1/2, else
+    sign(v)(F(π/2) − c^(2s+1) R(c²)).  No arctan, one power at most; two ends
+    on the same side of the foot near π/2 subtract the c-terms directly."""
+    r1 = np.hypot(ad, t1)
+    r2 = np.hypot(ad, t2)
+    v1 = t1 / r1
+    v2 = t2 / r2
+    c1 = ad / r1
+    c2 = ad / r2
+    g1 = 0.0
+    g2 = 0.0
+    b1 = v1 * v1 > 0.5
+    b2 = v2 * v2 > 0.5
+    if b1:
+        g1 = c1 ** (s2 + 1.0) * _clenshaw(cb, c1 * c1)
+    if b2:
+        g2 = c2 ** (s2 + 1.0) * _clenshaw(cb, c2 * c2)
+    if b1 and b2 and (v1 > 0.0) == (v2 > 0.0):
+        return (g1 - g2) if v1 > 0.0 else (g2 - g1)
+    f1 = (full - g1 if v1 > 0.0 else g1 - full) if b1 else v1 * _clenshaw(ca, v1 * v1)
+    f2 = (full - g2 if v2 > 0.0 else g2 - full) if b2 else v2 * _clenshaw(ca, v2 * v2)
+    return f2 - f1
+
+
+@njit(cache=True)
+def _edge_term(x0, x1, edges, e, g, s, ca, cb, full, far_x, far_w,
                far2_x):  # pragma: no cover
     """Share of Gauss point g (0 or 1) of edge e in 2s·κ(x), by the rule of
     :func:`fracfem._kernels.exterior_kappa`: its own term where that kernel
@@ -526,14 +575,12 @@ def _edge_term(x0, x1, edges, e, g, s, gl_x, gl_w, gj_x, gj_w, full, far_x, far_
             tq = t1 + (t2 - t1) * far_x[q]
             part += far_w[q] * (d * d + tq * tq) ** (-1.0 - s)
         return d * (t2 - t1) * part
-    f2 = _kernels_cos_power(np.arctan(t2 / ad), s2, gl_x, gl_w, gj_x, gj_w, full)
-    f1 = _kernels_cos_power(np.arctan(t1 / ad), s2, gl_x, gl_w, gj_x, gj_w, full)
-    return np.sign(d) * ad ** (-s2) * (f2 - f1)
+    return np.sign(d) * ad ** (-s2) * _cos_power_difference(t1, t2, ad, s2, ca, cb, full)
 
 
 @njit(cache=True, parallel=True)
 def kappa_near(x, tperm, tstart, near_ptr, near_rows, near_cols, tend, sperm, sstart, send,
-               src_edge, src_g, edges, s, gl_x, gl_w, gj_x, gj_w, full, far_x, far_w,
+               src_edge, src_g, edges, s, ca, cb, full, far_x, far_w,
                far2_x, out):  # pragma: no cover
     """out[i] += κ share of the near blocks of the target leaf of x_i (no
     races: every target point lies in one leaf)."""
@@ -548,5 +595,140 @@ def kappa_near(x, tperm, tstart, near_ptr, near_rows, near_cols, tend, sperm, ss
                 for kk in range(sstart[sl], send[sl]):
                     j = sperm[kk]
                     acc += _edge_term(x[i, 0], x[i, 1], edges, src_edge[j], src_g[j], s,
-                                      gl_x, gl_w, gj_x, gj_w, full, far_x, far_w, far2_x)
+                                      ca, cb, full, far_x, far_w, far2_x)
             out[i] += acc / s2
+
+
+# ---------------------------------------------------------------- trees
+
+
+@njit(cache=True)
+def split_tree(cent, diam, leaf_size, lo0x, lo0y, L):  # pragma: no cover
+    """The cluster tree of :func:`fracfem.compressed.cluster_tree`, built in
+    one pass: returns perm, start, end, parent, level, child0, child1, the
+    dyadic boxes (nc, 4), the tight boxes tlo, thi (nc, 2) and hmax (nc,).
+
+    A cluster's box is halved along its longer side (x first), empty halves
+    skipped; the split is a stable partition (left half first).  Boxes are
+    not refined beyond 2^-60 of the root: such a cluster (coincident
+    centroids, up to rounding) stays a leaf."""
+    nt = cent.shape[0]
+    cap = 2 * nt + 1
+    perm = np.arange(nt)
+    start = np.empty(cap, dtype=np.int64)
+    end = np.empty(cap, dtype=np.int64)
+    parent = np.empty(cap, dtype=np.int64)
+    level = np.empty(cap, dtype=np.int64)
+    c0 = np.full(cap, -1, dtype=np.int64)
+    c1 = np.full(cap, -1, dtype=np.int64)
+    box = np.zeros((cap, 4), dtype=np.int64)
+    buf = np.empty(nt, dtype=np.int64)
+    start[0] = 0
+    end[0] = nt
+    parent[0] = -1
+    level[0] = 0
+    n = 1
+    i = 0
+    while i < n:
+        a = start[i]
+        b = end[i]
+        if b - a > leaf_size:
+            dx, dy, ix, iy = box[i, 0], box[i, 1], box[i, 2], box[i, 3]
+            nl = 0
+            dim = 0
+            ok = False
+            while dx < 60 and dy < 60:
+                dim = 0 if dx <= dy else 1
+                if dim == 0:
+                    mid = lo0x + (2 * ix + 1) * L / 2.0 ** (dx + 1)
+                else:
+                    mid = lo0y + (2 * iy + 1) * L / 2.0 ** (dy + 1)
+                nl = 0
+                for k in range(a, b):
+                    if cent[perm[k], dim] < mid:
+                        nl += 1
+                if 0 < nl < b - a:
+                    ok = True
+                    break
+                if dim == 0:
+                    dx += 1
+                    ix = 2 * ix + (0 if nl else 1)
+                else:
+                    dy += 1
+                    iy = 2 * iy + (0 if nl else 1)
+            box[i, 0], box[i, 1], box[i, 2], box[i, 3] = dx, dy, ix, iy
+            if ok:
+                nlft = 0
+                nr = 0
+                for k in range(a, b):
+                    e = perm[k]
+                    if cent[e, dim] < mid:
+                        perm[a + nlft] = e
+                        nlft += 1
+                    else:
+                        buf[nr] = e
+                        nr += 1
+                for k in range(nr):
+                    perm[a + nlft + k] = buf[k]
+                for h in range(2):
+                    start[n] = a if h == 0 else a + nl
+                    end[n] = a + nl if h == 0 else b
+                    parent[n] = i
+                    level[n] = level[i] + 1
+                    if dim == 0:
+                        box[n, 0], box[n, 1], box[n, 2], box[n, 3] = dx + 1, dy, 2 * ix + h, iy
+                    else:
+                        box[n, 0], box[n, 1], box[n, 2], box[n, 3] = dx, dy + 1, ix, 2 * iy + h
+                    n += 1
+                c0[i] = n - 2
+                c1[i] = n - 1
+        i += 1
+    tlo = np.empty((n, 2))
+    thi = np.empty((n, 2))
+    hmax = np.empty(n)
+    for k in range(n - 1, -1, -1):      # children are created after their parent
+        if c0[k] < 0:
+            tlo[k, 0] = np.inf
+            tlo[k, 1] = np.inf
+            thi[k, 0] = -np.inf
+            thi[k, 1] = -np.inf
+            hmax[k] = -np.inf
+            for j in range(start[k], end[k]):
+                e = perm[j]
+                for d in range(2):
+                    tlo[k, d] = min(tlo[k, d], cent[e, d])
+                    thi[k, d] = max(thi[k, d], cent[e, d])
+                hmax[k] = max(hmax[k], diam[e])
+        else:
+            for d in range(2):
+                tlo[k, d] = min(tlo[c0[k], d], tlo[c1[k], d])
+                thi[k, d] = max(thi[c0[k], d], thi[c1[k], d])
+            hmax[k] = max(hmax[c0[k]], hmax[c1[k]])
+    return (perm, start[:n].copy(), end[:n].copy(), parent[:n].copy(), level[:n].copy(),
+            c0[:n].copy(), c1[:n].copy(), box[:n].copy(), tlo, thi, hmax)
+
+
+@njit(cache=True)
+def restrict_csr_inplace(indptr, indices, data, new_index):  # pragma: no cover
+    """Keep the rows and columns i with new_index[i] ≥ 0 (an increasing
+    numbering), compacting indices and data in place; returns the new indptr
+    and the number of entries kept (the first nnz of indices and data)."""
+    nrow = 0
+    for i in range(new_index.shape[0]):
+        if new_index[i] >= 0:
+            nrow += 1
+    ptr = np.zeros(nrow + 1, dtype=np.int64)
+    w = 0
+    r = 0
+    for i in range(indptr.shape[0] - 1):
+        if new_index[i] < 0:
+            continue
+        for k in range(indptr[i], indptr[i + 1]):
+            j = new_index[indices[k]]
+            if j >= 0:
+                indices[w] = j
+                data[w] = data[k]
+                w += 1
+        r += 1
+        ptr[r] = w
+    return ptr, w

@@ -344,7 +344,38 @@ def _boundary_edges(p, t):
 
 
 def _distance_to_edges(x, edges):
-    """Distance from points x (n, 2) to the nearest of the segments (m, 4)."""
+    """Distance from points x (n, 2) to the nearest of the segments (m, 4).
+
+    Many segments: a segment at distance D has its midpoint within D + ℓ/2,
+    so only segments whose midpoints lie within d_mid + ℓ_max of x (d_mid
+    the distance to the nearest midpoint) can be nearest; those candidates,
+    from a k-d tree, are measured exactly (the same result as
+    :func:`_distance_to_edges_all`, in O(n log m) instead of O(nm))."""
+    if len(edges) <= 64 or len(x) <= 64:
+        return _distance_to_edges_all(x, edges)
+    from scipy.spatial import cKDTree
+
+    a, b = edges[:, :2], edges[:, 2:]
+    mid = 0.5 * (a + b)
+    lmax = float(np.linalg.norm(b - a, axis=1).max())
+    tree = cKDTree(mid)
+    dm, _ = tree.query(x)
+    lists = tree.query_ball_point(x, dm * (1.0 + 1e-12) + lmax)
+    cnt = np.fromiter((len(c) for c in lists), dtype=np.int64, count=len(lists))
+    cand = np.fromiter((k for c in lists for k in c), dtype=np.int64, count=int(cnt.sum()))
+    owner = np.repeat(np.arange(len(x)), cnt)
+    xa = x[owner] - a[cand]
+    ab = b[cand] - a[cand]
+    tt = np.clip(np.sum(xa * ab, -1) / np.sum(ab * ab, -1), 0.0, 1.0)
+    d = np.linalg.norm(x[owner] - (a[cand] + tt[:, None] * ab), axis=-1)
+    out = np.full(len(x), np.inf)
+    np.minimum.at(out, owner, d)
+    return out
+
+
+def _distance_to_edges_all(x, edges):
+    """Distance from points x (n, 2) to the nearest of the segments (m, 4),
+    every point against every segment: the reference of :func:`_distance_to_edges`."""
     a, b = edges[:, :2], edges[:, 2:]
     out = np.full(len(x), np.inf)
     for i0 in range(0, len(x), 4096):
@@ -395,6 +426,9 @@ def _graded_collapsed_rule(layers, ngauss, toward_apex, theta_layers=0):
     return bary, W.ravel()
 
 
+KAPPA_CHUNK = 1 << 20   # points per κ evaluation in :func:`_kappa_local`
+
+
 def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None, kappa=None):
     """∫_T φ_a φ_b κ for every element (Nt, 3, 3); zero for elements whose
     three nodes are all on ∂Ω (they carry no free node).  ``kappa``: x ↦ κ(x)
@@ -418,8 +452,13 @@ def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None, kappa=None
             dv = _distance_to_edges(p[t[cand]].reshape(-1, 2), edges).reshape(-1, 3).min(1)
             near[cand[dv < quad.thin_closeness * diam[cand]]] = True
     if near.any():
-        out[near] = _kappa_near_boundary(p, t, np.flatnonzero(near), boundary_nodes, edges, s,
-                                         quad, diam, kappa)
+        # about 100 to 250 points per element: chunks of elements bound the memory
+        nel = np.flatnonzero(near)
+        step = max(1, KAPPA_CHUNK // 256)
+        for i0 in range(0, len(nel), step):
+            ch = nel[i0:i0 + step]
+            out[ch] = _kappa_near_boundary(p, t, ch, boundary_nodes, edges, s, quad, diam,
+                                           kappa)
     groups = []
     for order, sel in ((quad.kappa_order, (nb == 0) & ~far & ~near),
                        (max(quad.kappa_order // 2, 2), far)):
@@ -453,12 +492,16 @@ def _kappa_local(p, t, boundary_nodes, edges, s, quad, geometry=None, kappa=None
             order = [(apex + j) % 3 for j in range(3)]
             lam = np.empty_like(bary)
             lam[:, order] = bary
-        x = np.einsum("qk,tkd->tqd", lam, p[t[els]])
-        pts = x.reshape(-1, 2)
-        kap = (exterior_kernel(pts, edges, s) if kappa is None else kappa(pts)) \
-            .reshape(len(els), -1)
-        wk = kap * (w[None, :] * area2[els, None])
-        out[els] = np.einsum("tq,qa,qb->tab", wk, lam, lam)
+        # chunks of at most KAPPA_CHUNK points bound the memory of the κ
+        # evaluation (its trees and work arrays) at any mesh size
+        step = max(1, KAPPA_CHUNK // len(w))
+        for i0 in range(0, len(els), step):
+            ch = els[i0:i0 + step]
+            pts = np.einsum("qk,tkd->tqd", lam, p[t[ch]]).reshape(-1, 2)
+            kap = (exterior_kernel(pts, edges, s) if kappa is None else kappa(pts)) \
+                .reshape(len(ch), -1)
+            wk = kap * (w[None, :] * area2[ch, None])
+            out[ch] = np.einsum("tq,qa,qb->tab", wk, lam, lam)
     return out
 
 

@@ -74,6 +74,43 @@ def cluster_tree(cent: np.ndarray, diam: np.ndarray, leaf_size: int,
     (dx, dy, ix, iy): side L/2^dx by L/2^dy at integer position (ix, iy), so
     the coupling matrices of far blocks depend only on a few integers.
     ``root`` = (lower-left corner, side) shares one root square between the
+    trees of sources and targets.  Built by :func:`fracfem._h2_kernels.split_tree`;
+    :func:`cluster_tree_reference` is its plain-Python reference.
+    """
+    cent = np.ascontiguousarray(cent, dtype=np.float64)
+    if root is None:
+        root = square_around(cent)
+    lo0, L = np.asarray(root[0], dtype=np.float64), float(root[1])
+    (perm, start, end, parent, level, c0, c1, dyadic, tlo, thi,
+     hmax) = hk.split_tree(cent, np.ascontiguousarray(diam, dtype=np.float64),
+                           int(leaf_size), float(lo0[0]), float(lo0[1]), L)
+    return _tree_dict(perm, start, end, parent, level, c0, c1, dyadic, tlo, thi, hmax,
+                      lo0, L)
+
+
+def _tree_dict(perm, start, end, parent, level, c0, c1, dyadic, tlo, thi, hmax, lo0, L):
+    side = L / 2.0 ** dyadic[:, :2]
+    blo = lo0 + dyadic[:, 2:] * side
+    boxes = np.column_stack([blo + 0.5 * side, 0.5 * side])
+    order = np.argsort(level, kind="stable")
+    level_ptr = np.searchsorted(level[order], np.arange(level.max() + 2)).astype(np.int64)
+    return dict(perm=perm, start=start, end=end, parent=parent, child0=c0, child1=c1,
+                lo=blo, hi=blo + side, tlo=tlo, thi=thi, dyadic=dyadic,
+                boxes=np.ascontiguousarray(boxes), hmax=hmax,
+                level_nodes=order.astype(np.int64), level_ptr=level_ptr)
+
+
+def cluster_tree_reference(cent: np.ndarray, diam: np.ndarray, leaf_size: int,
+                 root: tuple | None = None) -> dict:
+    """Binary cluster tree of the element centroids on dyadic boxes: the
+    plain-Python reference of :func:`cluster_tree` (same output).
+
+    The root is a square around all centroids; a cluster's box is halved
+    along its longer side (x first) until it holds at most ``leaf_size``
+    elements, empty halves being skipped.  Every box is a dyadic rectangle
+    (dx, dy, ix, iy): side L/2^dx by L/2^dy at integer position (ix, iy), so
+    the coupling matrices of far blocks depend only on a few integers.
+    ``root`` = (lower-left corner, side) shares one root square between the
     trees of sources and targets.
     """
     nt = len(cent)
@@ -90,7 +127,8 @@ def cluster_tree(cent: np.ndarray, diam: np.ndarray, leaf_size: int,
         if b - a > leaf_size:
             idx = perm[a:b]
             dx, dy, ix, iy = box[i]
-            for _ in range(120):
+            nl = 0
+            while dx < 60 and dy < 60:      # no boxes below 2^-60 of the root
                 dim = 0 if dx <= dy else 1
                 if dim == 0:
                     mid = lo0[0] + (2 * ix + 1) * L / 2.0 ** (dx + 1)
@@ -129,17 +167,9 @@ def cluster_tree(cent: np.ndarray, diam: np.ndarray, leaf_size: int,
         pts = cent[idx]
         tlo[k], thi[k] = pts.min(0), pts.max(0)
         hmax[k] = diam[idx].max()
-    side = L / 2.0 ** dyadic[:, :2]
-    blo = lo0 + dyadic[:, 2:] * side
-    boxes = np.column_stack([blo + 0.5 * side, 0.5 * side])
-    level = np.array(level, dtype=np.int64)
-    order = np.argsort(level, kind="stable")
-    level_ptr = np.searchsorted(level[order], np.arange(level.max() + 2)).astype(np.int64)
-    return dict(perm=perm, start=start, end=end, parent=np.array(parent, dtype=np.int64),
-                child0=np.array(c0, dtype=np.int64), child1=np.array(c1, dtype=np.int64),
-                lo=blo, hi=blo + side, tlo=tlo, thi=thi, dyadic=dyadic,
-                boxes=np.ascontiguousarray(boxes), hmax=hmax,
-                level_nodes=order.astype(np.int64), level_ptr=level_ptr)
+    return _tree_dict(perm, start, end, np.array(parent, dtype=np.int64),
+                      np.array(level, dtype=np.int64), np.array(c0, dtype=np.int64),
+                      np.array(c1, dtype=np.int64), dyadic, tlo, thi, hmax, lo0, L)
 
 
 def square_around(*points: np.ndarray) -> tuple[np.ndarray, float]:
@@ -212,6 +242,34 @@ def block_tree(ta: dict, tb: dict, eta: float, ratio: float) -> tuple[np.ndarray
 KAPPA_RATIO = 13.0   # the exterior kernel's two-point rule holds beyond 12 edge lengths
 
 
+def cos_power_series(s: float, degree: int = 24) -> tuple[np.ndarray, np.ndarray]:
+    """Chebyshev coefficients (in 4y − 1, y ∈ [0, 1/2]) of
+    Q(y) = ∫₀¹ (1 − y x²)^(s−1/2) dx and R(y) = ∫₀¹ z^(2s) (1 − y z²)^(−1/2) dz,
+    so that ∫₀^φ cos^(2s) = v·Q(v²) (v = sin φ, v² ≤ 1/2) and
+    ∫_φ^(π/2) cos^(2s) = c^(2s+1) R(c²) (c = cos φ, c² ≤ 1/2).  Both are
+    analytic in a Bernstein ellipse of parameter 3 + √8 (singular at y = 1):
+    degree 24 leaves an interpolation error near 1e-17.  Sampled by
+    40-point Gauss–Legendre and Gauss–Jacobi rules (smooth integrands)."""
+    from numpy.polynomial import chebyshev
+    from scipy.special import roots_jacobi
+
+    from .quadrature import gauss01
+    gx, gw = gauss01(40)
+    jt, jw = roots_jacobi(40, 0.0, 2.0 * s)          # weight (1 + t)^(2s) on [−1, 1]
+    jx, jw = 0.5 * (jt + 1.0), jw / 2.0 ** (2.0 * s + 1.0)
+
+    def q(xi):
+        y = (np.atleast_1d(xi)[:, None] + 1.0) / 4.0
+        return np.sum(gw * (1.0 - y * gx ** 2) ** (s - 0.5), axis=1)
+
+    def r(xi):
+        y = (np.atleast_1d(xi)[:, None] + 1.0) / 4.0
+        return np.sum(jw * (1.0 - y * jx ** 2) ** -0.5, axis=1)
+
+    return (np.ascontiguousarray(chebyshev.chebinterpolate(q, degree)),
+            np.ascontiguousarray(chebyshev.chebinterpolate(r, degree)))
+
+
 class CompressedKappa:
     """κ(x) = ∫_{Ωᶜ}|x − y|^(−2−2s) dy at many points, equal to
     :func:`fracfem.assembly.exterior_kernel` up to the compression error.
@@ -225,7 +283,7 @@ class CompressedKappa:
 
     def __init__(self, edges: np.ndarray, s: float, *, order: int, eta: float,
                  leaf_size: int):
-        from scipy.special import gamma, roots_jacobi
+        from scipy.special import gamma
 
         from .quadrature import gauss01
         self.edges = np.ascontiguousarray(edges, dtype=np.float64)
@@ -243,8 +301,7 @@ class CompressedKappa:
             src[d, :, 0, 0] = np.tile(0.5 * ln * nrm[:, d], 2)
         self.src = src
         self.ln = np.tile(ln, 2)
-        gj_t, gj_w = roots_jacobi(8, 0.0, 2.0 * s)
-        self.rules = (*gauss01(8), 0.5 * (gj_t + 1.0), gj_w / 2.0 ** (2.0 * s + 1.0),
+        self.rules = (*cos_power_series(s),
                       0.5 * np.sqrt(np.pi) * gamma(s + 0.5) / gamma(s + 1.0),
                       *gauss01(4), g2)
 
@@ -446,6 +503,27 @@ def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray, nv: int) -> sp.cs
                           pat.indptr.astype(np.int64)), shape=(nv, nv))
 
 
+def _restrict(A: sp.csr_matrix, free: np.ndarray) -> sp.csr_matrix:
+    """A[free][:, free] for increasing ``free``, compacting A's arrays in place
+    (A is spent): no second copy of the near field at the peak."""
+    if len(free) > 1 and not np.all(np.diff(free) > 0):
+        return A[free][:, free].tocsr()
+    new_index = np.full(A.shape[0], -1, dtype=np.int64)
+    new_index[free] = np.arange(len(free))
+    ptr, nnz = hk.restrict_csr_inplace(A.indptr, A.indices, A.data, new_index)
+    arrays = []
+    for a in (A.data, A.indices):
+        if a.flags.owndata:
+            a.resize(nnz, refcheck=False)   # shrinks in place: nbytes stays honest
+        else:
+            a = a[:nnz].copy()
+        arrays.append(a)
+    out = sp.csr_matrix((arrays[0], arrays[1], ptr), shape=(len(free), len(free)),
+                        copy=False)
+    out.has_sorted_indices = True
+    return out
+
+
 def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
                        quadrature: QuadratureOptions | None = None,
                        eta: float = DEFAULT_ETA, leaf_size: int = DEFAULT_LEAF,
@@ -561,7 +639,7 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     tim["exterior"] = time.perf_counter() - t5
 
     free = np.asarray(mesh.interior_nodes(), dtype=np.int64)
-    Af = A[free][:, free].tocsr()
+    Af = _restrict(A, free)
     del A
     tim["total"] = time.perf_counter() - t0
     info = dict(order=m, tol=tol, eta=eta, leaf_size=leaf_size, clusters=len(tree["start"]),

@@ -683,3 +683,21 @@ def test_mismatched_far_thresholds_raise():
 def test_nchunks_zero_raises():
     with pytest.raises(ValueError):
         stiffness_matrix(tiny("circle1"), 0.5, nchunks=0)
+
+
+def test_distance_to_edges_by_tree_equals_all_pairs():
+    """The k-d tree path gives exactly the all-pairs distances, also on a
+    non-convex polygon and at boundary vertices (distance 0)."""
+    from fracfem.assembly import (_boundary_edges, _distance_to_edges,
+                                  _distance_to_edges_all, mesh_arrays)
+    from fracfem.meshes import disk_graded_aniso, lshape
+
+    rng = np.random.default_rng(7)
+    for mesh in (lshape(4), disk_graded_aniso(0.05)):
+        p, t = mesh_arrays(mesh)
+        edges, _ = _boundary_edges(p, t)
+        assert len(edges) > 64
+        x = np.vstack([p, p[t].mean(axis=1), rng.uniform(-1.2, 1.2, (500, 2))])
+        fast, ref = _distance_to_edges(x, edges), _distance_to_edges_all(x, edges)
+        np.testing.assert_array_equal(fast, ref)
+        assert np.count_nonzero(fast == 0.0) >= len(edges)

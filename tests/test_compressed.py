@@ -163,3 +163,88 @@ def test_operator_matches_dense_matrix_on_thin_triangles():
     assert op.info["far_blocks"] > 0
     x = np.random.default_rng(4).standard_normal(A.shape[0])
     assert np.linalg.norm(op @ x - A @ x) <= 1e-6 * np.linalg.norm(A @ x)
+
+
+@pytest.mark.parametrize("s", [0.05, 0.5, 0.95])
+def test_cos_power_series_matches_incomplete_beta(s):
+    """F(φ₂) − F(φ₁), F = ∫₀^φ cos^(2s), against the regularised incomplete
+    beta function, also where both ends lie near π/2 on one side of the foot
+    (the difference of two values near F(π/2), formed without cancellation)."""
+    from scipy.special import beta, betainc, gamma
+
+    from fracfem import _h2_kernels as hk
+    from fracfem.compressed import cos_power_series
+
+    ca, cb = cos_power_series(s)
+    half_b = 0.5 * beta(0.5, s + 0.5)
+    full = 0.5 * np.sqrt(np.pi) * gamma(s + 0.5) / gamma(s + 1.0)
+
+    def tail(t, ad):          # ∫_φ^(π/2) cos^(2s), φ = arctan(t/ad) ≥ 0
+        return half_b * betainc(s + 0.5, 0.5, ad * ad / (ad * ad + t * t))
+
+    def head(t, ad):          # ∫_0^φ cos^(2s) for φ ≥ 0
+        return half_b * betainc(0.5, s + 0.5, t * t / (ad * ad + t * t))
+
+    rng = np.random.default_rng(3)
+    worst = 0.0
+    for _ in range(2000):
+        ad = 10.0 ** rng.uniform(-10, 0)
+        t1, t2 = np.sort(np.abs(rng.standard_normal(2)) * 10.0 ** rng.uniform(-10, 1, 2))
+        same_side = hk._cos_power_difference(t1, t2, ad, 2 * s, ca, cb, full)
+        # the same interval mirrored, and one spanning the foot
+        mirrored = hk._cos_power_difference(-t2, -t1, ad, 2 * s, ca, cb, full)
+        spanning = hk._cos_power_difference(-t1, t2, ad, 2 * s, ca, cb, full)
+        # the reference in the form that keeps its own accuracy: tails beyond
+        # π/4, heads below; skipped where it cancels
+        if t1 > ad:
+            a, b = tail(t1, ad), tail(t2, ad)
+        elif t2 > ad:
+            a, b = full - tail(t2, ad), head(t1, ad)
+        else:
+            a, b = head(t2, ad), head(t1, ad)
+        ref = a - b
+        if ref < 1e-3 * a:
+            continue
+        ref_span = sum(head(t, ad) if t <= ad else full - tail(t, ad) for t in (t1, t2))
+        worst = max(worst, abs(same_side - ref) / ref, abs(mirrored - ref) / ref,
+                    abs(spanning - ref_span) / ref_span)
+    assert worst <= 1e-11
+    assert abs(hk._cos_power_difference(-1e300, 1e300, 1.0, 2 * s, ca, cb, full)
+               - 2 * full) <= 1e-14
+
+
+def test_cluster_tree_matches_its_reference():
+    from fracfem.assembly import _element_geometry, mesh_arrays
+    from fracfem.compressed import cluster_tree, cluster_tree_reference, square_around
+    from fracfem.meshes import disk_graded_aniso
+
+    p, t = mesh_arrays(disk_graded_aniso(0.05))
+    _, cent, diam = _element_geometry(p, t)
+    x = np.random.default_rng(4).random((5000, 2))
+    x[:40] = 0.25                                   # coincident points stay one leaf
+    for pts, dm, leaf, root in ((cent, diam, 8, None), (cent, diam, 64, None),
+                                (x, np.zeros(len(x)), 16, square_around(x, cent))):
+        fast = cluster_tree(pts, dm, leaf, root)
+        ref = cluster_tree_reference(pts, dm, leaf, root)
+        assert fast.keys() == ref.keys()
+        for key in ref:
+            np.testing.assert_array_equal(fast[key], ref[key], err_msg=key)
+    leaves = np.flatnonzero(fast["child0"] < 0)
+    assert (fast["end"] - fast["start"])[leaves].max() == 40
+
+
+def test_restriction_to_free_nodes_in_place():
+    import scipy.sparse as sp
+
+    from fracfem.compressed import _restrict
+
+    A = sp.random(200, 200, density=0.1, random_state=5, format="csr")
+    A = (A + A.T).tocsr()
+    A.sort_indices()
+    A = sp.csr_matrix((A.data.copy(), A.indices.astype(np.int64),
+                       A.indptr.astype(np.int64)), shape=A.shape)
+    free = np.sort(np.random.default_rng(6).choice(200, 150, replace=False))
+    expected = A[free][:, free].toarray()
+    B = _restrict(A, free)
+    np.testing.assert_array_equal(B.toarray(), expected)
+    assert B.data.nbytes == 8 * B.nnz and B.has_sorted_indices

@@ -210,6 +210,9 @@ GROUPS = [
             "touching pairs and close thin pairs; far-block coupling matrices; the far-field diagonal terms; "
             "the exterior term κ",
         "preconditioner_s": "setting up the preconditioner",
+        "start": "how PDAS starts: cold (λ_H = 0), or nested (from the solution on the "
+                 "previous level, itself solved by nested iteration from level 2)",
+        "coarse_s": "seconds of the levels below, nested: their assembly and solves",
         "pdas_steps": "PDAS active-set steps",
         "inner_iterations": "PCG iterations over all PDAS steps",
         "inner_per_solve": "PCG iterations of each PDAS step, in order",
