@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import subprocess
 import sys
@@ -69,6 +70,22 @@ def run_case(family: str, size: float, s: float) -> dict:
     return row
 
 
+def growth_table(df):
+    """Exponents k of N^k of time (assembly + solve) and peak RSS between
+    consecutive sizes of each family and s."""
+    import pandas as pd
+    out = []
+    for (fam, s), g in df.groupby(["family", "s"], sort=False):
+        g = g.sort_values("dofs")
+        for (_, a), (_, b) in zip(g.iterrows(), g.iloc[1:].iterrows()):
+            ln = np.log(b.dofs / a.dofs)
+            out.append(dict(family=fam, s=s, dofs_from=int(a.dofs), dofs_to=int(b.dofs),
+                            time_exponent=np.log((b.assembly_s + b.solve_s)
+                                                 / (a.assembly_s + a.solve_s)) / ln,
+                            rss_exponent=np.log(b.peak_rss_mb / a.peak_rss_mb) / ln))
+    return pd.DataFrame(out)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--uniform", type=int, nargs="*", default=[5, 6, 7])
@@ -89,6 +106,7 @@ def main(argv=None):
         return
     import pandas as pd
     rows = []
+    load = os.getloadavg()
     cases = ([("uniform", lv) for lv in args.uniform] + [("graded", h) for h in args.graded]
              + [("graded-sr", h) for h in args.graded_sr])
     for fam, size in cases:
@@ -113,7 +131,19 @@ def main(argv=None):
         extra = [c for c in ("matvec_rel_diff", "energy_rel_diff") if c in df]
         with open(args.md, "w") as fh:
             fh.write("# Compressed operator, Example 1\n\n")
+            fh.write(f"`python benchmarks/bench_compressed.py {' '.join(argv or sys.argv[1:])}`"
+                     f"; 1-minute load average {load[0]:.1f} before the first case and "
+                     f"{os.getloadavg()[0]:.1f} after the last (2 cores).\n\n")
             fh.write(df[cols + extra].to_markdown(index=False, floatfmt=".4g"))
+            phases = [c for c in df if c.startswith("t_") and c != "t_total"]
+            fh.write("\n\nAssembly phases, seconds:\n\n")
+            fh.write(df[["family", "size", "s", "dofs"] + phases]
+                     .to_markdown(index=False, floatfmt=".4g"))
+            growth = growth_table(df)
+            if len(growth):
+                fh.write("\n\nGrowth between consecutive sizes of one family and s: "
+                         "the exponent k of N^k.\n\n")
+                fh.write(growth.to_markdown(index=False, floatfmt=".3g"))
             fh.write("\n\n## PyNucleus, same problem (s = 0.5, uniform disk)\n\n")
             fh.write(ref.to_markdown(index=False, floatfmt=".4g"))
             fh.write("\n")

@@ -210,6 +210,9 @@ GROUPS = [
             "touching pairs and close thin pairs; far-block coupling matrices; the far-field diagonal terms; "
             "the exterior term κ",
         "preconditioner_s": "setting up the preconditioner",
+        ("dofs_from", "dofs_to"): "the two sizes compared (free nodes)",
+        ("time_exponent", "rss_exponent"): "k in N^k between them: of assembly + solve "
+                                           "seconds, of peak RSS",
         "start": "how PDAS starts: cold (λ_H = 0), or nested (from the solution on the "
                  "previous level, itself solved by nested iteration from level 2)",
         "coarse_s": "seconds of the levels below, nested: their assembly and solves",
