@@ -50,18 +50,22 @@ def run_level(level: int, s: float, tol: float, dense_check: int,
             prob = vi.mixed_problem("obstacle", ff.disk_uniform(k), s, 1.0, chi=chi,
                                     operator="compressed", tol=tol)
             seen[k] = dict(assembly=time.perf_counter() - t, dofs=prob.disc.A.shape[0],
-                           order=prob.disc.A.info["order"], mb=prob.disc.A.nbytes / 2**20)
-            seen["t"] = time.perf_counter()
+                           order=prob.disc.A.info["order"], mb=prob.disc.A.nbytes / 2**20,
+                           timings=prob.timings)
             yield prob
+            del prob          # before the next level is assembled
 
     t0 = time.perf_counter()
-    for k, (u, lam, info) in zip(range(first, level + 1), vi.solve_nested(problems(), "pdas")):
+    t_coarse = 0.0
+    levels = vi.solve_nested(problems(), "pdas")
+    for k, (u, lam, info) in zip(range(first, level + 1), levels):
         if k == level - 1:
             t_coarse = time.perf_counter() - t0
-    solve = info["seconds_total"]                       # PDAS with its inner solves
-    preconditioner = time.perf_counter() - seen["t"] - solve
-    t_coarse = t_coarse if first < level else 0.0
+    levels.close()                                      # the last operator goes too
+    del levels
     fin = seen[level]
+    solve = info["seconds_total"]                       # PDAS with its inner solves
+    preconditioner = fin["timings"]["preconditioner"]
     assembly = fin["assembly"]
     inner = info["inner_iterations"]
     row = dict(level=level, start="nested" if first < level else "cold",

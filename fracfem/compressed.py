@@ -504,10 +504,12 @@ def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray, nv: int) -> sp.cs
 
 
 def _restrict(A: sp.csr_matrix, free: np.ndarray) -> sp.csr_matrix:
-    """A[free][:, free] for increasing ``free``, compacting A's arrays in place
-    (A is spent): no second copy of the near field at the peak."""
+    """A[free][:, free] for increasing ``free``, compacting A's arrays in place:
+    no second copy of the values at the peak.  A is spent, and no other view
+    of its arrays may exist (the values are shrunk in place)."""
     if len(free) > 1 and not np.all(np.diff(free) > 0):
         return A[free][:, free].tocsr()
+    was_sorted = A.has_sorted_indices
     new_index = np.full(A.shape[0], -1, dtype=np.int64)
     new_index[free] = np.arange(len(free))
     ptr, nnz = hk.restrict_csr_inplace(A.indptr, A.indices, A.data, new_index)
@@ -520,7 +522,7 @@ def _restrict(A: sp.csr_matrix, free: np.ndarray) -> sp.csr_matrix:
         arrays.append(a)
     out = sp.csr_matrix((arrays[0], arrays[1], ptr), shape=(len(free), len(free)),
                         copy=False)
-    out.has_sorted_indices = True
+    out.has_sorted_indices = was_sorted
     return out
 
 
@@ -639,6 +641,7 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     tim["exterior"] = time.perf_counter() - t5
 
     free = np.asarray(mesh.interior_nodes(), dtype=np.int64)
+    del indptr, indices           # A's own arrays: compacted in place below
     Af = _restrict(A, free)
     del A
     tim["total"] = time.perf_counter() - t0
