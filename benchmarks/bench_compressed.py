@@ -10,6 +10,11 @@ seconds (multilevel preconditioner, relative residual 1e-10), the energy error
 
     python benchmarks/bench_compressed.py --uniform 5 6 7 8 --graded 0.0045 --s 0.25 0.5 0.75 \\
         --csv benchmarks/compressed.csv --md benchmarks/compressed.md
+    python benchmarks/bench_compressed.py --uniform --graded 0.0127 0.0064 0.0045 --s 0.5 \\
+        --csv benchmarks/compressed-graded.csv --md benchmarks/compressed-graded.md \\
+        --summary paper-figures/benchmark-scale.md
+
+``--from-csv`` rewrites the summary from a committed CSV without running anything.
 
 Each case runs in its own process so that peak memory is per case.  The
 PyNucleus figures (benchmarks/pynucleus-reference.csv) were measured with
@@ -86,6 +91,24 @@ def growth_table(df):
     return pd.DataFrame(out)
 
 
+def summary(df, source: str) -> str:
+    """One sentence on the largest case and the growth up to it, for the README."""
+    big = df.loc[df.dofs.idxmax()]
+    mesh = {"uniform": f"disk_uniform({int(big['size'])})",
+            "graded": f"disk_graded_aniso({big['size']:g})",
+            "graded-sr": f"disk_graded({big['size']:g})"}[big.family]
+    text = (f"Example 1, s = {big.s:g}, `{mesh}`, {int(big.dofs):,} unknowns: assembly "
+            f"{big.assembly_s:.0f} s + PCG {big.solve_s:.0f} s ({int(big.iterations)} "
+            f"iterations) on 2 cores, {big.peak_rss_mb / 1024:.1f} GiB peak, error "
+            f"{big.error:.2g}")
+    g = growth_table(df[(df.family == big.family) & (df.s == big.s)])
+    if len(g):
+        text += (f"; time ∝ N^{g.time_exponent.min():.2f}–{g.time_exponent.max():.2f}, "
+                 f"memory ∝ N^{g.rss_exponent.min():.2f}–{g.rss_exponent.max():.2f} from "
+                 f"{int(g.dofs_from.min()):,} unknowns")
+    return text + f" (`{source}`).\n"
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--uniform", type=int, nargs="*", default=[5, 6, 7])
@@ -96,8 +119,17 @@ def main(argv=None):
     ap.add_argument("--s", type=float, nargs="+", default=[0.25, 0.5, 0.75])
     ap.add_argument("--csv")
     ap.add_argument("--md")
+    ap.add_argument("--summary", help="write a one-sentence summary (Markdown) here")
+    ap.add_argument("--from-csv", help="no runs: read the cases from this CSV "
+                                       "(for --summary)")
     ap.add_argument("--case", nargs=3, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.from_csv:
+        import pandas as pd
+        if not args.summary:
+            ap.error("--from-csv needs --summary")
+        Path(args.summary).write_text(summary(pd.read_csv(args.from_csv), args.from_csv))
+        return
     from fracfem_workflow.logs import log_to_stderr
     log_to_stderr()
     if args.case:
@@ -122,6 +154,8 @@ def main(argv=None):
                   f"mem={row['nbytes_mb']:7.0f}MB rss={row['peak_rss_mb']:7.0f}MB "
                   f"err={row['error']:.4f}", flush=True)
     df = pd.DataFrame(rows)
+    if args.summary:
+        Path(args.summary).write_text(summary(df, args.csv or args.md or "this run"))
     if args.csv:
         df.to_csv(args.csv, index=False)
     if args.md:

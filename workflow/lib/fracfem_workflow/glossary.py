@@ -190,7 +190,8 @@ GROUPS = [
         "pairs_per_s": "`pairs` / `assembly_s`",
         "ratio_to_floor": "`assembly_s` / `floor_s`",
     }),
-    ("Compressed operator (`benchmarks/compressed.md`, `benchmarks/vi_compressed.md`)",
+    ("Compressed operator (`benchmarks/compressed.md`, `benchmarks/compressed-graded.md`, "
+     "`benchmarks/vi_compressed.md`)",
      False, {
         "size": "mesh: uniform level or graded h",
         "matvec_s": "seconds of one product, mean of three",
