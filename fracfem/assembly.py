@@ -364,10 +364,7 @@ def _distance_to_edges(x, edges):
     cnt = np.fromiter((len(c) for c in lists), dtype=np.int64, count=len(lists))
     cand = np.fromiter((k for c in lists for k in c), dtype=np.int64, count=int(cnt.sum()))
     owner = np.repeat(np.arange(len(x)), cnt)
-    xa = x[owner] - a[cand]
-    ab = b[cand] - a[cand]
-    tt = np.clip(np.sum(xa * ab, -1) / np.sum(ab * ab, -1), 0.0, 1.0)
-    d = np.linalg.norm(x[owner] - (a[cand] + tt[:, None] * ab), axis=-1)
+    d = _segment_distance(x[owner], a[cand], b[cand])
     out = np.full(len(x), np.inf)
     np.minimum.at(out, owner, d)
     return out
@@ -376,15 +373,18 @@ def _distance_to_edges(x, edges):
 def _distance_to_edges_all(x, edges):
     """Distance from points x (n, 2) to the nearest of the segments (m, 4),
     every point against every segment: the reference of :func:`_distance_to_edges`."""
-    a, b = edges[:, :2], edges[:, 2:]
+    a, b = edges[None, :, :2], edges[None, :, 2:]
     out = np.full(len(x), np.inf)
     for i0 in range(0, len(x), 4096):
-        xi = x[i0:i0 + 4096, None, :]
-        ab = (b - a)[None]
-        tt = np.clip(np.sum((xi - a[None]) * ab, -1) / np.sum(ab * ab, -1), 0.0, 1.0)
-        d = np.linalg.norm(xi - (a[None] + tt[..., None] * ab), axis=-1)
-        out[i0:i0 + 4096] = d.min(axis=1)
+        out[i0:i0 + 4096] = _segment_distance(x[i0:i0 + 4096, None, :], a, b).min(axis=1)
     return out
+
+
+def _segment_distance(x, a, b):
+    """Distance from x to the segments [a, b] (broadcast arrays, last axis 2)."""
+    ab = b - a
+    tt = np.clip(np.sum((x - a) * ab, -1) / np.sum(ab * ab, -1), 0.0, 1.0)
+    return np.linalg.norm(x - (a + tt[..., None] * ab), axis=-1)
 
 
 def exterior_kernel(x: np.ndarray, edges: np.ndarray, s: float) -> np.ndarray:

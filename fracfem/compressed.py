@@ -101,18 +101,9 @@ def _tree_dict(perm, start, end, parent, level, c0, c1, dyadic, tlo, thi, hmax, 
 
 
 def cluster_tree_reference(cent: np.ndarray, diam: np.ndarray, leaf_size: int,
-                 root: tuple | None = None) -> dict:
-    """Binary cluster tree of the element centroids on dyadic boxes: the
-    plain-Python reference of :func:`cluster_tree` (same output).
-
-    The root is a square around all centroids; a cluster's box is halved
-    along its longer side (x first) until it holds at most ``leaf_size``
-    elements, empty halves being skipped.  Every box is a dyadic rectangle
-    (dx, dy, ix, iy): side L/2^dx by L/2^dy at integer position (ix, iy), so
-    the coupling matrices of far blocks depend only on a few integers.
-    ``root`` = (lower-left corner, side) shares one root square between the
-    trees of sources and targets.
-    """
+                           root: tuple | None = None) -> dict:
+    """The tree of :func:`cluster_tree` (same arguments, same output), built
+    cluster by cluster in plain Python: the reference of its numba kernel."""
     nt = len(cent)
     perm = np.arange(nt, dtype=np.int64)
     if root is None:
