@@ -112,6 +112,26 @@ def test_thin_separated_pair_against_reference():
     assert rel(ref.far_pair_reference(PT, PT2, 8, 0.5), want) > 0.1
 
 
+def test_thin_separated_pair_in_either_order():
+    """A thin layer next to one twice as thick: the kernel integrates over
+    the smaller triangle outside and the larger inside whichever comes first,
+    and the block comes back in the caller's node order."""
+    w = 1.0 / ASPECT
+    PT = np.array([[0, 0], [1, 0], [1, w]])
+    PT2 = np.array([[0, 2 * w], [1, 4 * w], [0, 4 * w]])
+    want = ref.separated_pair_reference(PT, PT2, 0.5, n=5, extra=2)
+    p = np.vstack([PT, PT2])
+    t = np.array([[0, 1, 2], [3, 4, 5]])
+    gx, gw = gauss01(DEFAULT.thin_gauss)
+    got = np.empty((2, 6, 6))
+    _aniso_kernels.separated_blocks(p, t, np.array([[0, 1], [1, 0]]), 0.5, gx, gw,
+                                    DEFAULT.thin_ratio, got)
+    assert rel(got[0], want) < 3e-4
+    swap = [3, 4, 5, 0, 1, 2]
+    assert rel(got[1][np.ix_(swap, swap)], want) < 3e-4
+    assert np.allclose(got[1][np.ix_(swap, swap)], got[0], rtol=0, atol=1e-13 * abs(want).max())
+
+
 def test_separated_rule_matches_product_gauss_on_distant_pairs():
     T1 = np.array([[0, 0], [1, 0.2], [0.3, 0.9]])
     T2 = np.array([[1.5, 0.5], [2.5, 0.3], [1.9, 1.4]])
