@@ -39,19 +39,22 @@ def segment_edges(coarse, x0: float, x1: float, y: float = 0.0, tol: float = 1e-
 
 
 def example2(coarse, *, s: float = 0.5, height: float = 1.0, slope: float = 4.0,
-             quadrature=None):
+             quadrature=None, operator: str = "dense"):
     """Example 2 on T_H = coarse: (−Δ)ˢu ≥ 1 above χ = height − slope|x|² (mixed form).
 
-    Returns (MixedProblem, f) — f is needed by the estimators.
+    ``operator``: the stiffness representation, 'dense', 'compressed' or 'auto'
+    (:func:`fracfem.vi.mixed_problem`).  Returns (MixedProblem, f) — f is needed
+    by the estimators.
     """
     from . import vi
 
     chi = paraboloid_obstacle(height, slope)
-    return vi.mixed_problem("obstacle", coarse, s, 1.0, chi=chi, quadrature=quadrature), 1.0
+    return vi.mixed_problem("obstacle", coarse, s, 1.0, chi=chi, quadrature=quadrature,
+                            operator=operator), 1.0
 
 
 def example3(coarse, *, s: float = 0.6, a: float = 1.0, b: float = 0.0, F: float = 0.5,
-             quadrature=None):
+             quadrature=None, operator: str = "dense"):
     """Example 3 on T_H = coarse: interior friction on Ω with f = a − b|x|², bound F.
 
     b = 0 is the paper's f ≡ 1 (then u > 0 and λ_H = F: pure slip); b > a changes the
@@ -60,7 +63,8 @@ def example3(coarse, *, s: float = 0.6, a: float = 1.0, b: float = 0.0, F: float
     from . import vi
 
     f = radial_load(a, b)
-    return vi.mixed_problem("friction", coarse, s, f, F=F, quadrature=quadrature), f
+    return vi.mixed_problem("friction", coarse, s, f, F=F, quadrature=quadrature,
+                            operator=operator), f
 
 
 def pure_slip_energy(s: float, F: float, a: float = 1.0) -> float:

@@ -3,8 +3,10 @@ their convergence series.
 
 Each example is a small frozen dataclass holding its data; ``problem(mesh)``
 assembles it on a mesh (Example 1: the P1 mesh; the mixed examples: the
-multiplier mesh T_H, with T_h = refine_disk(T_H)).  :func:`example` builds one
-from its name and parameters, as a configuration file gives them.
+multiplier mesh T_H, with T_h = refine_disk(T_H)); ``problem(mesh, operator=...)``
+chooses the stiffness representation ('dense', 'compressed' or 'auto', as
+:func:`fracfem.discretise`).  :func:`example` builds one from its name and
+parameters, as a configuration file gives them.
 
 A member of a series is named by a tag, one letter per family of meshes:
 
@@ -67,9 +69,10 @@ class Example1:
     def __post_init__(self):
         object.__setattr__(self, "s", check_s(self.s))
 
-    def problem(self, mesh, quadrature: QuadratureOptions | None = None) -> Discretisation:
+    def problem(self, mesh, quadrature: QuadratureOptions | None = None,
+                operator: str = "dense") -> Discretisation:
         """Free-node matrix and load on the P1 mesh ``mesh``."""
-        return discretise(mesh, self.s, self.f, quadrature=quadrature)
+        return discretise(mesh, self.s, self.f, quadrature=quadrature, operator=operator)
 
     @property
     def exact_energy(self) -> float:
@@ -91,10 +94,11 @@ class Example2:
         object.__setattr__(self, "s", check_s(self.s))
         examples.paraboloid_obstacle(self.height, self.slope)      # checks the data
 
-    def problem(self, coarse, quadrature: QuadratureOptions | None = None):
+    def problem(self, coarse, quadrature: QuadratureOptions | None = None,
+                operator: str = "dense"):
         """The mixed problem on T_H = coarse."""
         return examples.example2(coarse, s=self.s, height=self.height, slope=self.slope,
-                                 quadrature=quadrature)[0]
+                                 quadrature=quadrature, operator=operator)[0]
 
 
 @dataclass(frozen=True)
@@ -119,10 +123,11 @@ class Example3:
     def f(self):
         return examples.radial_load(self.a, self.b)
 
-    def problem(self, coarse, quadrature: QuadratureOptions | None = None):
+    def problem(self, coarse, quadrature: QuadratureOptions | None = None,
+                operator: str = "dense"):
         """The mixed problem on T_H = coarse."""
         return examples.example3(coarse, s=self.s, a=self.a, b=self.b, F=self.F,
-                                 quadrature=quadrature)[0]
+                                 quadrature=quadrature, operator=operator)[0]
 
     @property
     def exact_energy(self) -> float | None:
@@ -151,11 +156,12 @@ class Example4:
     def initial_value(self) -> float:
         return self.u0
 
-    def problem(self, coarse, quadrature: QuadratureOptions | None = None):
+    def problem(self, coarse, quadrature: QuadratureOptions | None = None,
+                operator: str = "dense"):
         """The mixed problem of one time step's space discretisation on T_H = coarse."""
         chi = examples.paraboloid_obstacle(self.height, self.slope)
         return vi.mixed_problem("obstacle", coarse, self.s, self.f, chi=chi,
-                                quadrature=quadrature)
+                                quadrature=quadrature, operator=operator)
 
 
 @dataclass(frozen=True)
@@ -176,10 +182,11 @@ class Example5:
     def initial_value(self):
         return examples.ring_initial(self.r0)
 
-    def problem(self, coarse, quadrature: QuadratureOptions | None = None):
+    def problem(self, coarse, quadrature: QuadratureOptions | None = None,
+                operator: str = "dense"):
         """The mixed problem of one time step's space discretisation on T_H = coarse."""
         return vi.mixed_problem("friction", coarse, self.s, self.f, F=self.F,
-                                quadrature=quadrature)
+                                quadrature=quadrature, operator=operator)
 
 
 def _segment(value) -> tuple[float, float]:
@@ -209,13 +216,14 @@ class ThinObstacleDemo:
         object.__setattr__(self, "height", _finite("height", self.height))
         object.__setattr__(self, "segment", _segment(self.segment))
 
-    def problem(self, coarse, quadrature: QuadratureOptions | None = None):
+    def problem(self, coarse, quadrature: QuadratureOptions | None = None,
+                operator: str = "dense"):
         """The mixed problem on T_H = coarse (Γ̃ must be made of its edges)."""
         h = self.height
         return vi.mixed_problem("thin_obstacle", coarse, self.s, self.f,
                                 edges=examples.segment_edges(coarse, *self.segment),
                                 height=lambda x: np.full(x.shape[1:], h),
-                                quadrature=quadrature)
+                                quadrature=quadrature, operator=operator)
 
 
 @dataclass(frozen=True)
@@ -235,11 +243,12 @@ class ThinFrictionDemo:
         object.__setattr__(self, "F", _friction_bound(self.F))
         object.__setattr__(self, "segment", _segment(self.segment))
 
-    def problem(self, coarse, quadrature: QuadratureOptions | None = None):
+    def problem(self, coarse, quadrature: QuadratureOptions | None = None,
+                operator: str = "dense"):
         """The mixed problem on T_H = coarse (Γ̃ must be made of its edges)."""
         return vi.mixed_problem("thin_friction", coarse, self.s, self.f,
                                 edges=examples.segment_edges(coarse, *self.segment),
-                                F=self.F, quadrature=quadrature)
+                                F=self.F, quadrature=quadrature, operator=operator)
 
 
 EXAMPLES = {"ex1": Example1, "ex2": Example2, "ex3": Example3, "ex4": Example4,

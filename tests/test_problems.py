@@ -113,3 +113,23 @@ def test_thin_demos_put_multipliers_on_the_segment(cls, kind):
     assert prob.kind == kind
     # Γ̃ = [−0.5, 0.5] × {0} of disk_uniform(2): its edges have length 0.25
     assert prob.edges.shape[1] == 4 == prob.cset.n_multipliers
+
+
+@pytest.mark.parametrize("name, params", [("ex1", {}), ("ex2", {}), ("ex3", {"b": 3.0}),
+                                          ("ex4", {"u0": 2.0}), ("ex5", {}),
+                                          ("thin-obstacle", {}), ("thin-friction", {})])
+def test_every_example_assembles_compressed_as_dense(name, params):
+    """problem(mesh, operator='compressed') is the same problem with the
+    stiffness matrix compressed: equal loads, and A x equal to the compression
+    tolerance; a bad operator name is refused naming the parameter."""
+    ex = ff.example(name, **params)
+    mesh = ff.disk_uniform(3) if name == "ex1" else problems.multiplier_mesh("L4")
+    dense = ex.problem(mesh)
+    comp = ex.problem(mesh, operator="compressed")
+    dd, dc = (dense, comp) if name == "ex1" else (dense.disc, comp.disc)
+    assert dd.dense and not dc.dense
+    np.testing.assert_array_equal(dc.b, dd.b)
+    x = np.random.default_rng(1).standard_normal(dd.A.shape[0])
+    assert np.linalg.norm(dc.A @ x - dd.A @ x) <= 1e-6 * np.linalg.norm(dd.A @ x)
+    with pytest.raises(ValueError, match="operator"):
+        ex.problem(mesh, operator="sparse")

@@ -191,7 +191,7 @@ GROUPS = [
         "ratio_to_floor": "`assembly_s` / `floor_s`",
     }),
     ("Compressed operator (`benchmarks/compressed.md`, `benchmarks/compressed-graded.md`, "
-     "`benchmarks/vi_compressed.md`)",
+     "`benchmarks/vi_compressed.md`, `benchmarks/adaptive-ex2.md`)",
      False, {
         "size": "mesh: uniform level or graded h",
         "matvec_s": "seconds of one product, mean of three",
@@ -222,6 +222,9 @@ GROUPS = [
         "inner_per_solve": "PCG iterations of each PDAS step, in order",
         "dense_solve_s": "the dense PDAS solve on the same mesh",
         ("du_rel", "dlam_rel"): "max |u − u_dense| / max |u_dense|, the same for λ_H",
+        "energy": "the discrete energy E(u_h) = ½a(u_h,u_h) − (f,u_h)",
+        "estimate_s": "seconds of the step's estimator η (its pointwise (−Δ)ˢu_h included)",
+        "cumulative_s": "seconds from the start of Algorithm B to the end of the step",
     }),
     ("PCG with the multilevel preconditioner (`benchmarks/pcg.md`)", False, {
         "mesh": "the mesh, as the fracfem call that makes it",
