@@ -14,7 +14,6 @@ and estimate, the cumulative wall time and the peak RSS so far.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import os
 import resource
@@ -23,6 +22,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+import _tables
 
 COLUMNS = ["example", "tag", "dofs", "multipliers", "eta", "energy", "error",
            "pdas_steps", "assembly_s", "solve_s", "estimate_s", "cumulative_s",
@@ -72,14 +73,7 @@ def _cell(v, col: str = "") -> str:
 
 def markdown(rows: list[dict]) -> str:
     cols = [c for c in COLUMNS if any(r.get(c) not in (None, "") for r in rows)]
-    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    for r in rows:
-        cells = []
-        for c in cols:
-            v = r.get(c)
-            cells.append(_cell(v, c))
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+    return _tables.markdown(rows, cols, _cell)
 
 
 def main(argv=None):
@@ -103,13 +97,7 @@ def main(argv=None):
              "largest so far.\n\n")
     table = intro + markdown(rows)
     print(table)
-    if args.csv:
-        with open(args.csv, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=COLUMNS)
-            w.writeheader()
-            w.writerows(rows)
-    if args.md:
-        args.md.write_text(table)
+    _tables.write(rows, COLUMNS, table, args.csv, args.md)
 
 
 if __name__ == "__main__":

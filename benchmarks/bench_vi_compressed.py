@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+import _tables
+
 COLUMNS = ["level", "start", "coarse_s", "dofs", "multipliers", "order", "operator_mb", "assembly_s",
            "preconditioner_s", "pdas_steps", "inner_iterations", "inner_per_solve",
            "solve_s", "contact", "peak_rss_mb", "dense_solve_s", "du_rel", "dlam_rel"]
@@ -87,15 +89,14 @@ def run_level(level: int, s: float, tol: float, dense_check: int,
     return row
 
 
+def _cell(v, col: str = "") -> str:
+    if v is None:
+        return ""
+    return f"{v:.3g}" if isinstance(v, float) else str(v)
+
+
 def markdown(rows: list[dict]) -> str:
-    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
-    for r in rows:
-        cells = []
-        for c in COLUMNS:
-            v = r.get(c, "")
-            cells.append(f"{v:.3g}" if isinstance(v, float) else str(v))
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+    return _tables.markdown(rows, COLUMNS, _cell)
 
 
 def main(argv=None):
@@ -138,15 +139,7 @@ def main(argv=None):
              f"{os.getloadavg()[0]:.1f} after the last (2 cores). du_rel, dlam_rel: "
              "max-norm differences to the dense PDAS on the same mesh (compression error "
              "included); coarse_s: the levels below, assembled and solved.\n\n")
-    table = intro + table
-    if args.csv:
-        import csv
-        with open(args.csv, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=COLUMNS)
-            w.writeheader()
-            w.writerows(rows)
-    if args.md:
-        args.md.write_text(table)
+    _tables.write(rows, COLUMNS, intro + table, args.csv, args.md)
 
 
 if __name__ == "__main__":
