@@ -138,6 +138,33 @@ def vi_data(wildcards):
     return {"s": THIN["s"], "segment": THIN["segment"], **THIN[kind]}
 
 
+# Algorithm B with the compressed operator to reference.large.max_dofs DOFs: the reference
+# energy of Examples 2 and 3 where none is exact, and on the printed Example 3 (exact) the
+# check of that reference's uncertainty
+LARGE_REFERENCE_PROBLEMS = [p for p in VI_PROBLEMS if p.startswith(("ex2", "ex3-"))]
+
+
+def committed_reference(problem):
+    """The committed copy of the large run of ``problem`` (rule reference_large writes it)."""
+    return Path(workflow.basedir) / config["reference"]["large"]["committed"] / f"{problem}.csv"
+
+
+def large_reference(wildcards):
+    """The large run a problem's errors are measured against: its committed copy when that
+    was computed for the same data (and reference.large.recompute is false), else the run
+    itself (rule vi_adaptive_large, hours on two cores)."""
+    problem = wildcards.problem
+    path = committed_reference(problem)
+    if not config["reference"]["large"]["recompute"] and path.exists():
+        import pandas as pd
+        recorded = json.loads(pd.read_csv(path, usecols=["data"]).data.iloc[0])
+        if recorded == vi_data(wildcards):
+            return str(path)
+        logger.info(f"{path} was computed for {recorded}, not {vi_data(wildcards)}: "
+                    f"the reference of {problem} is recomputed (rule vi_adaptive_large)")
+    return f"{RES}/vi/{problem}/adaptive-large/steps.csv"
+
+
 def para_example(wildcards):
     """fracfem.example name of a parabolic problem (ex4-<u0>, ex5)."""
     return wildcards.problem.split("-")[0]

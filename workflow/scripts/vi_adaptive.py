@@ -1,4 +1,5 @@
 """Examples 2 and 3 on adaptive meshes: Algorithm B on the multiplier mesh T_H."""
+import json
 import time
 
 import numpy as np
@@ -14,8 +15,10 @@ logger = script_logger("vi_adaptive")
 
 
 def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure_steps, tol,
-         quadrature, table, npz, log=None, threads=None):
-    """problem: the run's name; example, data: fracfem.example(example, **data)."""
+         quadrature, table, npz, log=None, threads=None, operator="dense", family="adaptive"):
+    """problem: the run's name; example, data: fracfem.example(example, **data);
+    operator: 'dense', 'compressed' or 'auto' (dense below 8,000 free nodes), the
+    matrix of every step and, through the estimator's default, its (−Δ)ˢu_h."""
     start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
@@ -27,7 +30,7 @@ def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure
     def record(rec):
         lam = rec.lam
         rows.append({
-            "problem": problem, "family": "adaptive", "s": ex.s, "tag": f"step{rec.step}",
+            "problem": problem, "family": family, "s": ex.s, "tag": f"step{rec.step}",
             "dofs": rec.dofs, "multipliers": rec.n_multipliers, "triangles": rec.n_triangles,
             "h_max": rec.h_max, "h_min": rec.h_min, "energy": rec.energy, "eta": rec.eta,
             "eta_contact": rec.indicators["parts"]["contact_total"],
@@ -47,7 +50,7 @@ def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure
                     rec.eta, rec.energy)
         return rec.dofs >= max_dofs
 
-    recs = adaptive.algorithm_b(lambda coarse: ex.problem(coarse, quad),
+    recs = adaptive.algorithm_b(lambda coarse: ex.problem(coarse, quad, operator=operator),
                                 ff.disk_uniform(start_level), theta=theta, steps=max_steps,
                                 marking="maximum", solver="pdas", f=ex.f, callback=record,
                                 solver_options={"tol": tol})
@@ -61,7 +64,8 @@ def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure
     save_arrays(npz, **arrays)
     df = pd.DataFrame(rows).assign(**parameter_columns(
         quadrature=quad, theta=theta, marking="maximum", start_level=start_level,
-        max_dofs=max_dofs, solver="pdas", tol=tol))
+        max_dofs=max_dofs, solver="pdas", tol=tol, operator=operator,
+        data=json.dumps(data, sort_keys=True)))
     write_table(with_provenance(df), table)
 
 
@@ -72,4 +76,5 @@ if __name__ == "__main__":
          snakemake.params.max_steps, snakemake.params.figure_steps,  # noqa: F821
          snakemake.params.tol, snakemake.params.quadrature,  # noqa: F821
          snakemake.output.table, snakemake.output.npz, snakemake.log[0],  # noqa: F821
-         snakemake.threads)  # noqa: F821
+         snakemake.threads, snakemake.params.operator,  # noqa: F821
+         snakemake.params.family)  # noqa: F821

@@ -14,7 +14,7 @@ __all__ = ["start", "parameter_columns", "parameter_names", "parabolic_pieces"]
 
 # scalar parameters recorded in result rows (besides the quadrature_<field> columns)
 PARAMETERS = ("grading", "theta", "marking", "start_level", "max_dofs", "solver", "cross_check",
-              "tol", "maxiter", "T", "tau_factor", "c_tau")
+              "tol", "maxiter", "T", "tau_factor", "c_tau", "operator", "data")
 
 
 def start(log: str | None = None, threads: int | None = None) -> None:
