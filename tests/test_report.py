@@ -4,7 +4,8 @@ import pandas as pd
 import pytest
 
 from fracfem import assembly, exact, laplace, meshes
-from fracfem_workflow.report import energy_error, extrapolate_energy, fit_rate, rate_table
+from fracfem_workflow.report import (energy_error, extrapolate_energy, extrapolation_uncertainty,
+                                     fit_rate, rate_table)
 
 
 def test_extrapolation_recovers_the_model_limit():
@@ -32,6 +33,21 @@ def test_extrapolation_refuses_accelerating_decrease():
     # differences growing on a geometric DOF sequence: no β > 0 fits
     with pytest.raises(ValueError, match="β"):
         extrapolate_energy([10, 20, 40], [1.0, 0.99, 0.9])
+
+
+def test_extrapolation_uncertainty_vanishes_on_the_model_and_bounds_a_correction():
+    N = 113.0 * 2.05 ** np.arange(9)            # an adaptive series: ×2 DOFs per step
+    exact_model = -0.6 + 0.3 * N ** -1.0
+    assert extrapolation_uncertainty(N, exact_model)["uncertainty"] < 1e-6
+    # a second, faster-decaying term: the limit of the three finest is off, and the
+    # change when the finest run is left out is at least that far off
+    E = -0.6 + 0.3 * N ** -1.0 + 2.0 * N ** -1.5
+    out = extrapolation_uncertainty(N, E)
+    true_error = float(energy_error(out["energy"], -0.6))
+    assert true_error > 1e-4                     # the correction does move the limit
+    assert true_error <= out["uncertainty"] <= 5 * true_error
+    with pytest.raises(ValueError, match="four"):
+        extrapolation_uncertainty(N[:3], E[:3])
 
 
 def test_energy_error_is_the_energy_norm_error_of_example_1():

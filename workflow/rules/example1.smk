@@ -33,6 +33,7 @@ rule ex1_adaptive:
         max_dofs=EX1["adaptive"]["max_dofs"],
         max_steps=EX1["adaptive"]["max_steps"],
         quadrature=QUADRATURE,
+        operator=EX1["adaptive"]["operator"],
     threads: 2
     conda:
         ENV

@@ -213,7 +213,7 @@ rule vi_adaptive_large:
         start_level=config["vi_adaptive"]["start_level"],
         max_dofs=config["reference"]["large"]["max_dofs"],
         max_steps=config["vi_adaptive"]["max_steps"],
-        figure_steps=[],
+        figure_steps=config["reference"]["large"]["figure_steps"],
         tol=SOLVER["tol"],
         quadrature=QUADRATURE,
         operator="auto",

@@ -14,7 +14,8 @@ logger = script_logger("ex1_adaptive")
 
 
 def main(s, theta, start_level, max_dofs, max_steps, quadrature, table, npz, log=None,
-         threads=None):
+         threads=None, operator="dense"):
+    """operator: 'dense', 'compressed' or 'auto' (dense below 8,000 free nodes)."""
     start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
     example = ff.Example1(s)
@@ -40,14 +41,14 @@ def main(s, theta, start_level, max_dofs, max_steps, quadrature, table, npz, log
                     rec.step, rec.dofs, rows[-1]["error"], rec.eta, rows[-1]["efficiency"])
         return rec.dofs >= max_dofs
 
-    recs = adaptive.algorithm_b(lambda mesh: example.problem(mesh, quad),
+    recs = adaptive.algorithm_b(lambda mesh: example.problem(mesh, quad, operator=operator),
                                 ff.disk_uniform(start_level), theta=theta, steps=max_steps,
                                 marking="maximum", f=example.f, callback=record)
     last = recs[-1]
     save_arrays(npz, p=last.mesh.p, t=last.mesh.t, u=last.u, s=example.s)
     df = pd.DataFrame(rows).assign(**parameter_columns(
         quadrature=quad, theta=theta, marking="maximum", start_level=start_level,
-        max_dofs=max_dofs))
+        max_dofs=max_dofs, operator=operator))
     write_table(with_provenance(df), table)
 
 
@@ -56,4 +57,4 @@ if __name__ == "__main__":
          snakemake.params.start_level, snakemake.params.max_dofs,  # noqa: F821
          snakemake.params.max_steps, snakemake.params.quadrature,  # noqa: F821
          snakemake.output.table, snakemake.output.npz, snakemake.log[0],  # noqa: F821
-         snakemake.threads)  # noqa: F821
+         snakemake.threads, snakemake.params.operator)  # noqa: F821

@@ -66,8 +66,8 @@ GROUPS = [
         "difference": "`rate` − `paper_rate` (> 0: our error falls more slowly)",
         "n_points": "runs in the fit",
         "n_excluded": "runs left out: error ≤ 3× `reference_error`",
-        "reference_error": "the reference's own error: 0 if exact; Examples 2, 3 the spread "
-                           "of the families' extrapolated limits; Examples 4, 5 "
+        "reference_error": "the reference's own error: 0 if exact; Examples 2, 3 the "
+                           "`large uncertainty` of `elliptic-errors.md`; Examples 4, 5 "
                            "`reference_error_estimate`",
         "smallest_error": "smallest error of the series",
         ("dof_min", "dof_max"): "smallest and largest DOFs of the fit",
@@ -106,12 +106,18 @@ GROUPS = [
     }),
     ("Reference energies (`elliptic-errors.md`)", False, {
         "reference": "where E_ref comes from: `exact`, `exact (pure slip)`, "
-                     "`extrapolated (<family>)`",
+                     "`extrapolated (Algorithm B to <N> DOFs)`",
         "E_ref": "the reference energy of the errors (Example 1: −½(f,u))",
         "extrapolated": "limit E_∞ of E_∞ + C·N^(−β) through the three finest energies of "
                         "the `reference.family` series",
-        "reference error": "E exact: √(2|`extrapolated` − E|); else the spread of the "
-                           "extrapolations",
+        "reference error": "E exact: √(2|`extrapolated` − E|); else `large uncertainty`",
+        "large DOFs": "fine DOFs of the last step of the large Algorithm B series "
+                      "(compressed operator; rule `vi_adaptive_large`)",
+        "large extrapolated": "limit E_∞ through the large series' three finest energies: "
+                              "E_ref where no energy is exact",
+        "large uncertainty": "√(2|E_∞ − E_∞'|), E_∞' the same limit without the finest run",
+        "large check": "E exact: √(2|`large extrapolated` − E|), the true error of that limit",
+        "large efficiency": "η / error on the finest mesh of the large series",
         "finest error": "smallest error of any family",
         "spread of the extrapolations": "√(2|max − min|) of the families' limits",
         "families": "families whose extrapolation exists",

@@ -6,7 +6,7 @@ import pandas as pd
 
 __all__ = ["PAPER_RATES", "PAPER_S", "REFERENCE_MARGIN", "paper_rate", "fit_rate", "fit_mask",
            "masked_rate",
-           "rate_table", "extrapolate_energy",
+           "rate_table", "extrapolate_energy", "extrapolation_uncertainty",
            "energy_error", "time_to_reach"]
 
 # error in H^s vs DOFs (parabolic: vs space-time DOFs), paper Section 8
@@ -132,6 +132,26 @@ def extrapolate_energy(dofs, energies) -> dict:
     C = d1 / (N[0] ** -beta - N[1] ** -beta)
     return {"energy": float(E[2] - C * N[2] ** -beta), "beta": float(beta), "C": float(C),
             "dofs_used": N.astype(int).tolist()}
+
+
+def extrapolation_uncertainty(dofs, energies) -> dict:
+    """:func:`extrapolate_energy` through the three finest runs, and its uncertainty.
+
+    ``uncertainty`` = √(2 |E_∞ − E_∞'|) (the scale of :func:`energy_error`), E_∞' the
+    same extrapolation without the finest run: how much the limit still moves when
+    one more run is added.  Needs at least four runs.
+    """
+    N = np.asarray(dofs, dtype=float)
+    E = np.asarray(energies, dtype=float)
+    if N.shape != E.shape or N.ndim != 1 or len(N) < 4:
+        raise ValueError("extrapolation_uncertainty needs at least four (dofs, energy) pairs, "
+                         f"got {len(N)}")
+    order = np.argsort(N)
+    N, E = N[order], E[order]
+    last = extrapolate_energy(N, E)
+    previous = extrapolate_energy(N[:-1], E[:-1])
+    return {**last, "previous": previous["energy"],
+            "uncertainty": float(energy_error(last["energy"], previous["energy"]))}
 
 
 def energy_error(energy, reference) -> np.ndarray:
