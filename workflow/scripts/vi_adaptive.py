@@ -45,7 +45,7 @@ def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure
             "t_cumulative": time.perf_counter() - t_start,
             "peak_mem_mb": peak_memory_mb()})
         if rec.step in keep:
-            meshes[rec.step] = (rec.mesh, rec.coarse, rec.indicators["eta2_coarse"])
+            meshes[rec.step] = (rec.mesh, rec.coarse, rec.indicators["eta2_coarse"], rec.dofs)
         logger.info("adaptive step %d: %d dofs, eta %.4e, energy %.8f", rec.step, rec.dofs,
                     rec.eta, rec.energy)
         return rec.dofs >= max_dofs
@@ -55,12 +55,12 @@ def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure
                                 marking="maximum", solver="pdas", f=ex.f, callback=record,
                                 solver_options={"tol": tol})
     last = recs[-1]
-    meshes[last.step] = (last.mesh, last.coarse, last.indicators["eta2_coarse"])
+    meshes[last.step] = (last.mesh, last.coarse, last.indicators["eta2_coarse"], last.dofs)
     arrays = {"p": last.mesh.p, "t": last.mesh.t, "pc": last.coarse.p, "tc": last.coarse.t,
               "u": last.u, "lam": last.lam, "s": ex.s, "steps": np.array(sorted(meshes))}
-    for k, (fine, coarse, eta2) in meshes.items():
+    for k, (fine, coarse, eta2, dofs) in meshes.items():
         arrays.update({f"p{k}": fine.p, f"t{k}": fine.t, f"pc{k}": coarse.p,
-                       f"tc{k}": coarse.t, f"eta2_{k}": eta2})
+                       f"tc{k}": coarse.t, f"eta2_{k}": eta2, f"dofs{k}": dofs})
     save_arrays(npz, **arrays)
     df = pd.DataFrame(rows).assign(**parameter_columns(
         quadrature=quad, theta=theta, marking="maximum", start_level=start_level,
