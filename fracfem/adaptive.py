@@ -121,9 +121,11 @@ def algorithm_b_steps(make_problem: Callable, coarse0, *, theta: float, steps: i
                       tol: float | None = None, f=None, order: int = 4,
                       solver_options: dict | None = None,
                       estimator_options: dict | None = None,
-                      callback: Callable | None = None) -> Iterator[StepRecord]:
+                      callback: Callable | None = None,
+                      warm_start: bool = True) -> Iterator[StepRecord]:
     """Algorithm B as a generator of :class:`StepRecord` (see :func:`algorithm_b`)."""
-    from .vi import MixedProblem, solve as vi_solve
+    from .transfer import interpolate_at
+    from .vi import MixedProblem, prolong_multiplier, solve as vi_solve
 
     theta = _check_theta(theta)
     if marking not in MARKINGS:
@@ -134,8 +136,12 @@ def algorithm_b_steps(make_problem: Callable, coarse0, *, theta: float, steps: i
         raise ValueError(f"tol={tol!r} must be a number >= 0 or None")
     mark = MARKINGS[marking]
     solver_options = dict(solver_options or {})
+    if warm_start and ("lam0" in solver_options or "u0" in solver_options):
+        raise ValueError("solver_options must not set lam0 or u0 when warm_start=True: "
+                         "each step starts from the previous step's solution")
     estimator_options = dict(estimator_options or {})
     mesh = coarse0
+    previous = None   # (T_H, T_h, u_h, λ_H) of the last step, the start of the next solve
     clock = Ticker(0.0)
     logger.info("Algorithm B: at most %d steps, marking %s, theta %g, tol %s", steps, marking,
                 theta, tol)
@@ -146,7 +152,17 @@ def algorithm_b_steps(make_problem: Callable, coarse0, *, theta: float, steps: i
         tim["assemble"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         if isinstance(prob, MixedProblem):
-            u, lam, info = vi_solve(prob, solver, **solver_options)
+            start = {}
+            if warm_start and previous is not None and prob.kind in ("obstacle", "friction"):
+                # the refined problem's active sets are nearly the last step's: PDAS needs a
+                # few steps instead of a number growing with the contact boundary's resolution
+                c_prev, f_prev, u_prev, lam_prev = previous
+                start["lam0"] = prolong_multiplier(c_prev, lam_prev, prob.coarse)
+                if not prob.disc.dense:
+                    start["u0"] = interpolate_at(f_prev, u_prev,
+                                                 prob.fine.p[:, prob.disc.free])
+            u, lam, info = vi_solve(prob, solver, **start, **solver_options)
+            previous = (prob.coarse, prob.fine, u, lam)
             tim["solve"] = time.perf_counter() - t0
             t0 = time.perf_counter()
             est = estimators.estimate(prob, u, lam, order, f=f, **estimator_options)
@@ -216,7 +232,8 @@ def algorithm_b(make_problem: Callable, coarse0, *, theta: float, steps: int,
                 marking: str = "maximum", solver: str = "pdas",
                 tol: float | None = None, callback: Callable | None = None, f=None,
                 order: int = 4, solver_options: dict | None = None,
-                estimator_options: dict | None = None) -> list[StepRecord]:
+                estimator_options: dict | None = None,
+                warm_start: bool = True) -> list[StepRecord]:
     """Algorithm B: SOLVE → ESTIMATE → MARK → REFINE, ``steps`` passes at most.
 
     Parameters
@@ -242,6 +259,10 @@ def algorithm_b(make_problem: Callable, coarse0, *, theta: float, steps: int,
         stores it); required
     order : triangle rule of the indicators (estimators module docstring)
     estimator_options : further keywords of estimators.estimate(_laplace)
+    warm_start : start each obstacle or friction solve from the last step's solution
+        (λ_H by :func:`fracfem.vi.prolong_multiplier`, u_h interpolated for the inner
+        Krylov solves), as :func:`fracfem.vi.solve_nested`; the solution is the same
+        to the solver's tolerance
 
     Returns
     -------
@@ -253,4 +274,4 @@ def algorithm_b(make_problem: Callable, coarse0, *, theta: float, steps: int,
                                   marking=marking, solver=solver, tol=tol, f=f,
                                   order=order, solver_options=solver_options,
                                   estimator_options=estimator_options,
-                                  callback=callback))
+                                  callback=callback, warm_start=warm_start))

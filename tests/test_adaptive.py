@@ -248,3 +248,27 @@ def test_algorithm_b_friction_energy_includes_j():
         assert r.energy == pytest.approx(expected, rel=1e-10)
         ct = r.indicators["parts"]["contact"]
         assert ct["fine"].min() >= -1e-14 and ct["coarse"].sum() > 0
+
+
+@pytest.mark.parametrize("operator", ["dense", "compressed"])
+def test_algorithm_b_warm_start_same_solution_fewer_pdas_steps(operator):
+    """Starting each step from the last one's λ_H (and u_h for the Krylov PDAS) leaves
+    every step's energy unchanged and does not add PDAS steps; sign-changing friction,
+    where cold starts need most of them."""
+    ex = ff.example("ex3", s=0.6, a=1.0, b=3.0, F=0.5)
+
+    def run(warm):
+        return adaptive.algorithm_b(lambda c: ex.problem(c, operator=operator),
+                                    ff.disk_uniform(2), theta=0.5, steps=4, f=ex.f,
+                                    warm_start=warm)
+    cold, warm = run(False), run(True)
+    assert [r.dofs for r in cold] == [r.dofs for r in warm]
+    np.testing.assert_allclose([r.energy for r in warm], [r.energy for r in cold],
+                               rtol=1e-9)
+    steps_cold = [r.info["iterations"] for r in cold]
+    steps_warm = [r.info["iterations"] for r in warm]
+    assert steps_warm[0] == steps_cold[0]          # the first step has nothing to start from
+    assert sum(steps_warm[1:]) < sum(steps_cold[1:])
+    with pytest.raises(ValueError, match="lam0"):
+        adaptive.algorithm_b(lambda c: ex.problem(c), ff.disk_uniform(1), theta=0.5,
+                             steps=1, f=ex.f, solver_options={"lam0": None})

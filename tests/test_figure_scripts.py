@@ -1,9 +1,13 @@
 """The figure scripts' own logic: DG(0) steps drawn on their intervals (Figure 11), a
-decayed solution shown as zero (Figure 14), the friction figure end to end (Figure 8)."""
+decayed solution shown as zero (Figure 14), the friction figure end to end (Figure 8), the
+reference energy of Examples 2 and 3 (vi_errors)."""
 import importlib.util
 from pathlib import Path
 
+import json
+
 import numpy as np
+import pandas as pd
 import pytest
 
 import fracfem as ff
@@ -87,3 +91,30 @@ def test_figure8_draws_the_slip_boundaries(tmp_path, monkeypatch, captured):
              if c.get_label().startswith("boundaries between")]
     assert len(lines) == 2 and len(lines[0].get_segments()) > 0
     assert fig.legends and "boundaries" in fig.legends[0].get_texts()[0].get_text()
+
+
+def test_reference_energy_is_the_limit_of_the_large_series():
+    """E_ref: the large series' extrapolation (not a mesh family's); its uncertainty is the
+    reference error; where the energy is exact that is used and the large limit checked
+    against it; a large series of other data is refused."""
+    vi_errors = script("vi_errors")
+    from fracfem_workflow.report import energy_error, extrapolation_uncertainty
+    N = 113.0 * 2.1 ** np.arange(9)
+    E = -0.6 + 0.3 * N ** -1.0 + 2.0 * N ** -1.5
+    large = pd.DataFrame({"dofs": N.astype(int), "energy": E, "eta": 0.9 * N ** -0.5,
+                          "data": json.dumps({"s": 0.5})})
+    n = np.array([25.0, 113.0, 481.0, 1985.0])
+    series = pd.DataFrame({"family": "uniform", "dofs": n, "energy": -0.58 + 0.2 * n ** -0.5})
+    ref, info = vi_errors.reference_energy("ex2", None, "graded-sr", series, large)
+    expected = extrapolation_uncertainty(large.dofs, large.energy)
+    assert ref == expected["energy"] and abs(ref + 0.6) < 1e-6
+    assert info["large_uncertainty"] == expected["uncertainty"] > 0
+    assert info["extrapolated_uniform"] == pytest.approx(-0.58, abs=1e-9)   # cross-check only
+    assert info["large_finest_error"] == pytest.approx(energy_error(E[-1], ref))
+    ref, info = vi_errors.reference_energy("ex3-printed", -0.6, "graded-sr", series, large)
+    assert ref == -0.6
+    assert info["large_check"] == pytest.approx(energy_error(expected["energy"], -0.6))
+    assert info["large_check"] <= info["large_uncertainty"]
+    assert vi_errors.check_data(large, "ex2", {"s": 0.5}) is large
+    with pytest.raises(ValueError, match="computed for"):
+        vi_errors.check_data(large, "ex2", {"s": 0.4})

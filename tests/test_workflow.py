@@ -100,3 +100,25 @@ def test_reference_family_needs_three_meshes(tmp_path):
     code, text = dry_run("--configfile", str(tmp_path / "short.yaml"), ok=False)
     assert code != 0
     assert "example2.graded_sr_h=[0.8, 0.56] must list at least 3 meshes" in text
+
+
+def test_figure7_reuses_the_committed_large_reference(tmp_path):
+    """With the committed data, Figure 7 runs the pipeline's series and the committed large
+    Algorithm B run stands in for the reference (no job recomputes it)."""
+    _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
+                      "--", f"{tmp_path}/o/fig07-ex2-error.png")
+    jobs = job_counts(text)
+    assert "vi_adaptive_large" not in jobs and jobs["vi_errors"] == 1
+    assert "workflow/data/reference/ex2.csv" in text
+
+
+def test_other_data_recompute_the_large_reference(tmp_path):
+    """A committed reference computed for other data is not used: changing Example 2's
+    order schedules the large run of Example 2 (and only that one)."""
+    (tmp_path / "s.yaml").write_text("example2:\n  s: 0.4\n")
+    _, text = dry_run("--configfile", str(tmp_path / "s.yaml"), "--config",
+                      f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
+                      "--", f"{tmp_path}/o/fig07-ex2-error.png")
+    jobs = job_counts(text)
+    assert jobs["vi_adaptive_large"] == 1
+    assert f"{tmp_path}/r/vi/ex2/adaptive-large/steps.csv" in text

@@ -4,6 +4,7 @@
 import hashlib
 import json
 from pathlib import Path
+from types import SimpleNamespace as Namespace
 
 import yaml
 from snakemake.utils import validate
@@ -144,25 +145,29 @@ def vi_data(wildcards):
 LARGE_REFERENCE_PROBLEMS = [p for p in VI_PROBLEMS if p.startswith(("ex2", "ex3-"))]
 
 
-def committed_reference(problem):
-    """The committed copy of the large run of ``problem`` (rule reference_large writes it)."""
-    return Path(workflow.basedir) / config["reference"]["large"]["committed"] / f"{problem}.csv"
+def committed_reference(problem, kind="table"):
+    """The committed copy of the large run of ``problem`` (rule reference_large writes it):
+    its steps (kind 'table') or the meshes kept for Figure 6 (kind 'meshes')."""
+    name = f"{problem}.csv" if kind == "table" else f"{problem}-meshes.npz"
+    return Path(workflow.basedir) / config["reference"]["large"]["committed"] / name
 
 
-def large_reference(wildcards):
-    """The large run a problem's errors are measured against: its committed copy when that
-    was computed for the same data (and reference.large.recompute is false), else the run
-    itself (rule vi_adaptive_large, hours on two cores)."""
+def large_reference(wildcards, kind="table"):
+    """The large run a problem's errors are measured against (kind 'table'; 'meshes': its
+    meshes for Figure 6): the committed copy when that was computed for the same data (and
+    reference.large.recompute is false), else the run itself (rule vi_adaptive_large, tens
+    of minutes and GBs on two cores)."""
     problem = wildcards.problem
-    path = committed_reference(problem)
-    if not config["reference"]["large"]["recompute"] and path.exists():
+    table, path = committed_reference(problem), committed_reference(problem, kind)
+    if not config["reference"]["large"]["recompute"] and table.exists() and path.exists():
         import pandas as pd
-        recorded = json.loads(pd.read_csv(path, usecols=["data"]).data.iloc[0])
+        recorded = json.loads(pd.read_csv(table, usecols=["data"]).data.iloc[0])
         if recorded == vi_data(wildcards):
             return str(path)
-        logger.info(f"{path} was computed for {recorded}, not {vi_data(wildcards)}: "
+        logger.info(f"{table} was computed for {recorded}, not {vi_data(wildcards)}: "
                     f"the reference of {problem} is recomputed (rule vi_adaptive_large)")
-    return f"{RES}/vi/{problem}/adaptive-large/steps.csv"
+    return f"{RES}/vi/{problem}/adaptive-large/" + ("steps.csv" if kind == "table"
+                                                    else "meshes.npz")
 
 
 def para_example(wildcards):

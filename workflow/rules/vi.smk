@@ -229,12 +229,20 @@ rule vi_adaptive_large:
 # copies (the input files, not outputs of this rule: a fresh clone uses the copies as they are)
 rule reference_large:
     input:
-        expand(rules.vi_adaptive_large.output.table, problem=LARGE_REFERENCE_PROBLEMS),
+        tables=expand(rules.vi_adaptive_large.output.table, problem=LARGE_REFERENCE_PROBLEMS),
+        meshes=expand(rules.vi_adaptive_large.output.npz, problem=LARGE_REFERENCE_PROBLEMS),
     run:
         import shutil
-        for problem, src in zip(LARGE_REFERENCE_PROBLEMS, input):
-            shutil.copyfile(src, committed_reference(problem))
-            logger.info(f"{src} -> {committed_reference(problem)}")
+        import numpy as np
+        for problem, table, npz in zip(LARGE_REFERENCE_PROBLEMS, input.tables, input.meshes):
+            shutil.copyfile(table, committed_reference(problem))
+            # the meshes of Figure 6 without the fine meshes and solution (a few MB less)
+            d = np.load(npz)
+            keep = {k: d[k] for k in d.files
+                    if k in ("steps", "pc", "tc", "lam", "s") or k.startswith(("pc", "tc", "dofs"))}
+            with open(committed_reference(problem, "meshes"), "wb") as f:
+                np.savez_compressed(f, **keep)
+            logger.info(f"{table}, {npz} -> {committed_reference(problem)}")
 
 
 rule vi_errors:
@@ -311,7 +319,7 @@ rule fig05:
 
 rule fig06:
     input:
-        npz=path(rules.vi_adaptive.output.npz, problem="ex2"),
+        npz=lambda wildcards: large_reference(Namespace(problem="ex2"), kind="meshes"),
     output:
         png=report(
             f"{OUT}/fig06-ex2-adaptive-meshes.png",

@@ -1,26 +1,32 @@
-"""Figure 6: Example 2 adaptive meshes T_h after several refinements, coarse indicators."""
+"""Figure 6: Example 2's adaptive multiplier meshes T_H: the paper's 1st, 3rd and 8th
+adaptive meshes and the last one of the large Algorithm B series."""
 import numpy as np
 
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import plt, problem_title, save
 
 
+def ordinal(n):
+    return f"{n}{'th' if 10 <= n % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(n % 10, 'th')}"
+
+
 def main(npz, png, pdf):
     d = np.load(npz)
     steps = [int(k) for k in d["steps"]]
-    fig, axes = plt.subplots(1, len(steps), figsize=(3.4 * len(steps), 3.6), squeeze=False)
+    fig, axes = plt.subplots(1, len(steps), figsize=(3.3 * len(steps), 3.7), squeeze=False)
+    contact = d["lam"] < 0
     for ax, k in zip(axes[0], steps):
-        p, t = d[f"p{k}"], d[f"t{k}"]
-        ax.triplot(p[0], p[1], t.T, lw=0.2, color="k")
-        ax.set_title(f"after {k} refinement{'' if k == 1 else 's'}: {t.shape[1]} triangles")
+        pc, tc = d[f"pc{k}"], d[f"tc{k}"]
+        # thinner lines where the mesh is fine, so the grading stays visible
+        ax.triplot(pc[0], pc[1], tc.T, lw=0.4 if tc.shape[1] < 5000 else 0.05, color="k")
+        ax.tripcolor(d["pc"][0], d["pc"][1], d["tc"].T,
+                     facecolors=np.where(contact, 1.0, np.nan), cmap="Reds", vmin=0, vmax=2,
+                     alpha=0.35, edgecolors="none")
+        ax.set_title(f"{ordinal(k + 1)} mesh: {tc.shape[1]:,} elements of $T_H$\n"
+                     f"{int(d[f'dofs{k}']):,} DOFs of $T_h$", fontsize=9)
         ax.set_aspect("equal")
         ax.set_axis_off()
-    pc, tc, lam = d["pc"], d["tc"], d["lam"]
-    contact = lam < 0
-    for ax in axes[0]:
-        ax.tripcolor(pc[0], pc[1], tc.T, facecolors=np.where(contact, 1.0, np.nan),
-                     cmap="Reds", vmin=0, vmax=2, alpha=0.35, edgecolors="none")
-    fig.suptitle(f"{problem_title('ex2')}, Algorithm B: meshes $T_h$ "
+    fig.suptitle(f"{problem_title('ex2')}, Algorithm B: adaptive meshes $T_H$ "
                  r"(shaded: final contact set $\{\lambda_H < 0\}$)")
     save(fig, png, pdf)
 

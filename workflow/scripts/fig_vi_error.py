@@ -21,8 +21,10 @@ def panel(ax, df):
     ref_err = df.reference_error.max()
     if ref_err > 0:
         ax.axhline(ref_err, color="grey", lw=0.7, ls="--",
-                   label="reference's own error (spread of the families' limits)")
-    ref = "exact" if ex == 3 and var == "printed" else "extrapolated"
+                   label="reference's own error (measured uncertainty)")
+        ax.axhline(3 * ref_err, color="grey", lw=0.7, ls=":",
+                   label="3× that: fits use only errors above")
+    ref = "exact" if ex == 3 and var == "printed" else "extrapolated (large adaptive run)"
     ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$; "
                  f"reference energy {ref}")
     ax.set_xlabel(DOFS)

@@ -60,6 +60,15 @@ def reference_energy(problem, exact, reference_family, series, large):
     return ref, info
 
 
+def check_data(large, problem, data):
+    """``large`` (a large series' table) if it was computed for ``data``, else ValueError."""
+    recorded = json.loads(large.data.iloc[0])
+    if recorded != data:
+        raise ValueError(f"the large reference series of {problem} was computed for {recorded}, "
+                         f"not for this run's data {data}")
+    return large
+
+
 def main(problem, example, data, reference_family, series, adaptive, large, csv, json_path,
          log=None):
     """problem: the run's name; example, data: fracfem.example(example, **data)."""
@@ -73,11 +82,7 @@ def main(problem, example, data, reference_family, series, adaptive, large, csv,
     params = parameter_names(dict.fromkeys([*series.columns, *adapt.columns]))
     df = pd.concat([series[cols + [c for c in params if c in series]],
                     adapt[cols + [c for c in params if c in adapt]]], ignore_index=True)
-    large = pd.read_csv(large)
-    recorded = json.loads(large.data.iloc[0])
-    if recorded != data:
-        raise ValueError(f"the large reference series of {problem} was computed for {recorded}, "
-                         f"not for this run's data {data}")
+    large = check_data(pd.read_csv(large), problem, data)
     ref, info = reference_energy(problem, exact, reference_family, df, large)
     df["error"] = energy_error(df.energy, ref)
     df["below_reference"] = df.energy < ref   # E_h < E_ref: nonconforming or reference off
