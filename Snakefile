@@ -37,6 +37,7 @@ localrules:
     thin_demo,
     fig_vi_error,
     reference_table,
+    reference_large,
     elliptic_error_vs_time,
     fig_para_error,
     fig10,

@@ -146,7 +146,7 @@ LARGE_REFERENCE_PROBLEMS = [p for p in VI_PROBLEMS if p.startswith(("ex2", "ex3-
 
 
 def committed_reference(problem, kind="table"):
-    """The committed copy of the large run of ``problem`` (rule reference_large writes it):
+    """The committed copy of the large run of ``problem`` (written by reference_large):
     its steps (kind 'table') or the meshes kept for Figure 6 (kind 'meshes')."""
     name = f"{problem}.csv" if kind == "table" else f"{problem}-meshes.npz"
     return Path(workflow.basedir) / config["reference"]["large"]["committed"] / name

@@ -231,18 +231,19 @@ rule reference_large:
     input:
         tables=expand(rules.vi_adaptive_large.output.table, problem=LARGE_REFERENCE_PROBLEMS),
         meshes=expand(rules.vi_adaptive_large.output.npz, problem=LARGE_REFERENCE_PROBLEMS),
-    run:
-        import shutil
-        import numpy as np
-        for problem, table, npz in zip(LARGE_REFERENCE_PROBLEMS, input.tables, input.meshes):
-            shutil.copyfile(table, committed_reference(problem))
-            # the meshes of Figure 6 without the fine meshes and solution (a few MB less)
-            d = np.load(npz)
-            keep = {k: d[k] for k in d.files
-                    if k in ("steps", "pc", "tc", "lam", "s") or k.startswith(("pc", "tc", "dofs"))}
-            with open(committed_reference(problem, "meshes"), "wb") as f:
-                np.savez_compressed(f, **keep)
-            logger.info(f"{table}, {npz} -> {committed_reference(problem)}")
+    params:
+        problems=LARGE_REFERENCE_PROBLEMS,
+        committed={p: (str(committed_reference(p)), str(committed_reference(p, "meshes")))
+                   for p in LARGE_REFERENCE_PROBLEMS},
+        meshes_problem="ex2",   # Figure 6
+    log:
+        f"{RES}/logs/reference_large.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/reference_large.tsv"
+    conda:
+        ENV
+    script:
+        "../scripts/reference_copy.py"
 
 
 rule vi_errors:

@@ -81,7 +81,7 @@ GROUPS = [
         "fastest": "the family with the smallest such time",
         "speed-up vs slowest": "largest of those times / smallest",
     }),
-    ("Obstacle and friction (`vi-runs.md`, `ex5-free-boundary.md`)", True, {
+    ("Obstacle and friction (`vi-runs.md`, `ex5-free-boundary.md`)", False, {
         ("iterations_uzawa", "iterations_pdas"): "Uzawa and PDAS iterations on the same "
                                                  "discrete problem",
         "contact": "elements of T_H with λ_H < 0 (beyond round-off)",
