@@ -118,3 +118,25 @@ def test_reference_energy_is_the_limit_of_the_large_series():
     assert vi_errors.check_data(large, "ex2", {"s": 0.5}) is large
     with pytest.raises(ValueError, match="computed for"):
         vi_errors.check_data(large, "ex2", {"s": 0.4})
+
+
+def test_figure6_names_the_paper_s_meshes(tmp_path, monkeypatch, captured):
+    """Steps 0, 2, 7 and 9 of Algorithm B are the 1st, 3rd, 8th and 10th adaptive meshes;
+    each panel names its T_H elements and T_h DOFs."""
+    fig06 = script("fig06")
+    figures, keep = captured
+    monkeypatch.setattr(fig06, "save", keep)
+    meshes = {k: ff.disk_uniform(level) for k, level in zip((0, 2, 7, 9), (1, 2, 3, 4))}
+    last = meshes[9]
+    arrays = {"steps": np.array(sorted(meshes)), "pc": last.p, "tc": last.t,
+              "lam": -np.ones(last.t.shape[1])}
+    for k, m in meshes.items():
+        arrays.update({f"pc{k}": m.p, f"tc{k}": m.t, f"dofs{k}": 10 * k + 1})
+    np.savez(tmp_path / "m.npz", **arrays)
+    fig06.main(tmp_path / "m.npz", "x.png", "x.pdf")
+    titles = [ax.get_title() for ax in figures[0].axes if ax.get_title()]
+    assert [t.split(" mesh")[0] for t in titles] == ["1st", "3rd", "8th", "10th"]
+    assert f"{meshes[7].t.shape[1]:,} elements of $T_H$" in titles[2]
+    assert "71 DOFs" in titles[2]
+    assert [fig06.ordinal(n) for n in (11, 12, 13, 21, 22, 23)] == ["11th", "12th", "13th",
+                                                                     "21st", "22nd", "23rd"]

@@ -3,7 +3,8 @@ shape-regular for comparison), fitted rates."""
 import pandas as pd
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import DOFS, ERROR_LABELS, plt, problem_title, rate_series, save
+from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, legend_below, plt, problem_title,
+                                        rate_series, save)
 from fracfem_workflow.report import paper_rate
 
 
@@ -16,7 +17,7 @@ def main(rows, s, png, pdf):
     ax.set_xlabel(DOFS)
     ax.set_ylabel(ERROR_LABELS["elliptic"])
     ax.set_title(f"{problem_title('ex1')}, $s = {s:g}$; fitted rates")
-    ax.legend()
+    legend_below(ax)
     save(fig, png, pdf)
 
 

@@ -2,8 +2,8 @@
 import pandas as pd
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import (ERROR_LABELS, FAMILY_LABELS, SPACETIME_DOFS, plt,
-                                        problem_title, rate_series, save)
+from fracfem_workflow.plotstyle import (ERROR_LABELS, FAMILY_LABELS, SPACETIME_DOFS,
+                                        legend_below, plt, problem_title, rate_series, save)
 from fracfem_workflow.report import fit_rate, paper_rate
 
 
@@ -24,7 +24,7 @@ def main(csvs, png, pdf):
                    label="reference's own error (estimate)")
         ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$")
         ax.set_xlabel(SPACETIME_DOFS)
-        ax.legend()
+        legend_below(ax)
     axes[0][0].set_ylabel(ERROR_LABELS["parabolic"])
     save(fig, png, pdf)
 

@@ -2,8 +2,8 @@
 import pandas as pd
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, plt, problem_title, rate_series,
-                                        save)
+from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, legend_below, plt, problem_title,
+                                        rate_series, save)
 from fracfem_workflow.report import fit_rate, paper_rate
 
 
@@ -28,7 +28,7 @@ def panel(ax, df):
     ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$; "
                  f"reference energy {ref}")
     ax.set_xlabel(DOFS)
-    ax.legend()
+    legend_below(ax)
 
 
 def main(csvs, png, pdf):

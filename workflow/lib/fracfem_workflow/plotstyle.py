@@ -47,6 +47,12 @@ def rate_series(ax, x, y, family, reference_error=0.0, paper=None, exclude=None)
     return rate
 
 
+def legend_below(ax):
+    """The legend of an error plot under its axes (inside them it covers the finest runs),
+    one entry per line: the same place and size in every error figure."""
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize=8, frameon=False)
+
+
 # Axis labels: what is measured, in the paper's symbols.
 DOFS = "degrees of freedom"
 SPACETIME_DOFS = "space-time degrees of freedom"
