@@ -179,7 +179,7 @@ rule vi_adaptive:
         start_level=config["vi_adaptive"]["start_level"],
         max_dofs=config["vi_adaptive"]["max_dofs"],
         max_steps=config["vi_adaptive"]["max_steps"],
-        figure_steps=config["vi_adaptive"]["figure_steps"],
+        figure_steps=[],   # Figure 6 is drawn from the large series (reference.large)
         tol=SOLVER["tol"],
         quadrature=QUADRATURE,
         operator=config["vi_adaptive"]["operator"],
