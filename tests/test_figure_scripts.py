@@ -56,6 +56,21 @@ def friction_data(tmp_path, U, F):
     return path
 
 
+def adaptive_data(tmp_path, run):
+    """The same states as Algorithm C's last pass stores them (one mesh per output time)."""
+    d = np.load(run)
+    arrays = {"last_iteration": 3}
+    for j, time in enumerate(d["times"]):
+        arrays.update({f"time_last_{j}": time, f"tstep_last_{j}": time, f"p_last_{j}": d["p"],
+                       f"t_last_{j}": d["t"], f"u_last_{j}": d["U"][j],
+                       f"pc_last_{j}": d["pc"], f"tc_last_{j}": d["tc"]})
+        if j > 0:
+            arrays[f"lam_last_{j}"] = d["LAM"][j - 1]
+    path = tmp_path / "adaptive.npz"
+    np.savez(path, **arrays)
+    return path
+
+
 def test_figure14_says_a_decayed_solution_is_zero(tmp_path, monkeypatch, captured):
     """At t = 0.8 |u| ≈ 3e−12 ≤ 1e−10 max|u(0)|: that panel says u ≡ 0 (and draws no
     round-off); at t = 0.4 (|u| = 1e−9, above) it draws u; λ_H has a colour bar."""
@@ -69,12 +84,17 @@ def test_figure14_says_a_decayed_solution_is_zero(tmp_path, monkeypatch, capture
         return np.array([bump, 0.1 * bump, 1e-9 * bump, 1e-10 * bump,
                          3e-12 * rng.standard_normal(p.shape[1]), np.zeros(p.shape[1])])
     npz = friction_data(tmp_path, U, F=0.1)
-    fig14.main(npz, [0.0, 0.4, 0.8], 0.1, 1e-10, None, None, tmp_path / "t.md")
+    fig14.main(adaptive_data(tmp_path, npz), npz, [0.0, 0.4, 0.8], 0.1, 1e-10, None, None,
+               tmp_path / "t.md")
     titles = [ax.get_title() for ax in figures[0].axes]
     assert any("t = 0.80" in s and r"\equiv 0" in s for s in titles)
     assert not any("t = 0.40" in s and r"\equiv 0" in s for s in titles)
     bars = [c for ax in figures[0].axes for c in ax.child_axes]        # inset colour bars
     assert [c.get_ylabel() for c in bars] == [r"$\lambda_H$"]
+    assert "pass 3" in figures[0].get_suptitle()
+    with pytest.raises(ValueError, match="output times"):
+        fig14.main(adaptive_data(tmp_path, npz), npz, [0.0, 0.5], 0.1, 1e-10, None, None,
+                   tmp_path / "t.md")
 
 
 def test_figure8_draws_the_slip_boundaries(tmp_path, monkeypatch, captured):

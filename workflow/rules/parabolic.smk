@@ -135,8 +135,9 @@ rule fig10:
 
 rule fig14:
     input:
-        npz=path(rules.para_solve.output.npz, problem="ex5", family="reference",
-                 tag=PARA_REF_TAG),
+        npz=path(rules.para_adaptive.output.npz, problem="ex5"),
+        reference=path(rules.para_solve.output.npz, problem="ex5", family="reference",
+                       tag=PARA_REF_TAG),
     output:
         png=report(
             f"{OUT}/fig14-ex5-solution.png",
@@ -153,7 +154,7 @@ rule fig14:
             subcategory="Tables",
         ),
     params:
-        times=[0.0, 0.2, 0.4, 0.8],
+        times=[t for t in PARA["output_times"] if t < PARA["T"]],   # the paper: 0, 0.2, 0.4, 0.8
         F=PARA["examples"]["ex5"]["F"],
         tol=SOLVER["tol"],
     log:

@@ -1,4 +1,5 @@
-"""Figure 14: Example 5, u_hτ and λ_H at several times; where λ_H switches sign."""
+"""Figure 14: Example 5 from Algorithm C, u_hτ and λ_H at several times; where λ_H
+switches sign over time in the reference run (ex5-free-boundary.md)."""
 import numpy as np
 import pandas as pd
 
@@ -31,37 +32,57 @@ def sci(x):
     return (f"{mantissa} \\times " if mantissa != "1" else "") + f"10^{{{int(exponent)}}}"
 
 
-def main(npz, times_shown, F, tol, png, pdf, md):
+def adaptive_states(npz):
+    """The last Algorithm C pass's states at its output times: [(t, t_step, p, t, u, pc,
+    tc, λ_H or None)], ordered by t, and the pass number."""
     d = np.load(npz)
-    p, t, U, LAM, times = d["p"], d["t"], d["U"], d["LAM"], d["times"]
-    pc, tc = d["pc"], d["tc"]
+    states = []
+    j = 0
+    while f"time_last_{j}" in d:
+        states.append((float(d[f"time_last_{j}"]), float(d[f"tstep_last_{j}"]),
+                       d[f"p_last_{j}"], d[f"t_last_{j}"], d[f"u_last_{j}"],
+                       d[f"pc_last_{j}"], d[f"tc_last_{j}"],
+                       d[f"lam_last_{j}"] if f"lam_last_{j}" in d else None))
+        j += 1
+    return sorted(states, key=lambda s: s[0]), int(d["last_iteration"])
+
+
+def main(npz, reference_npz, times_shown, F, tol, png, pdf, md):
+    """npz: the Algorithm C run (the figure); reference_npz: the reference run, whose
+    every time step gives the free-boundary table."""
+    states, iteration = adaptive_states(npz)
+    at = {round(s[0], 12): s for s in states}
+    missing = [ts for ts in times_shown if round(float(ts), 12) not in at]
+    if missing or 0.0 not in at:
+        raise ValueError(f"times {missing or [0.0]} are not output times of {npz} "
+                         f"({sorted(at)}): add them to parabolic.output_times")
+    u0_max = np.abs(at[0.0][4]).max()
     n = len(times_shown)
     fig = plt.figure(figsize=(3.4 * n, 6.8))
     lam_axes, tp = [], None
     for j, ts in enumerate(times_shown):
-        k = int(np.argmin(np.abs(times - ts)))
+        time, t_step, p, t, u, pc, tc, lam = at[round(float(ts), 12)]
         ax = fig.add_subplot(2, n, j + 1, projection="3d")
-        if is_zero(U[k], U[0], tol):
+        if time > 0 and is_zero(u, u0_max, tol):
             # round-off of a solution that has decayed to zero: draw the zero it is
-            surface(ax, p, t, np.zeros_like(U[k]), cmap="Greys", vmin=-1, vmax=1)
+            surface(ax, p, t, np.zeros_like(u), cmap="Greys", vmin=-1, vmax=1)
             ax.set_zlim(-1, 1)
             ax.set_zticks([0])
-            ax.set_title(rf"$u_{{h\tau}}$, $t = {times[k]:.2f}$: $u_{{h\tau}} \equiv 0$")
-            ax.text2D(0.5, 0.92, rf"$\max|u_{{h\tau}}| = {sci(np.abs(U[k]).max())}$"
+            ax.set_title(rf"$u_{{h\tau}}$, $t = {time:.2f}$: $u_{{h\tau}} \equiv 0$")
+            ax.text2D(0.5, 0.92, rf"$\max|u_{{h\tau}}| = {sci(np.abs(u).max())}$"
                       "\n" rf"$\leq {sci(tol)}\,\max|u_h(0)|$ (solver tolerance)",
                       transform=ax.transAxes, ha="center", va="top", fontsize="small")
         else:
-            surface(ax, p, t, U[k])
-            ax.set_title(rf"$u_{{h\tau}}$, $t = {times[k]:.2f}$")
+            surface(ax, p, t, u)
+            ax.set_title(rf"$u_{{h\tau}}$, $t = {time:.2f}$ ({t.shape[1]:,} triangles)")
         ax2 = fig.add_subplot(2, n, n + j + 1)
         map_axes(ax2)
-        if k > 0:
-            lam = LAM[k - 1]
+        if lam is not None:
             tp = ax2.tripcolor(pc[0], pc[1], tc.T, facecolors=lam, cmap="coolwarm",
                                vmin=-F, vmax=F, edgecolors="none")
             slip_boundaries(ax2, pc, tc, lam, F)
             stick = not friction_states(lam, F).any()
-            ax2.set_title(rf"$\lambda_H$, $t = {times[k]:.2f}$"
+            ax2.set_title(rf"$\lambda_H$, $t = {time:.2f}$"
                           + (": stick everywhere" if stick else ""))
             lam_axes.append(ax2)
         else:
@@ -72,9 +93,11 @@ def main(npz, times_shown, F, tol, png, pdf, md):
         colorbar(fig, tp, lam_axes[-1], r"$\lambda_H$")
         fig.legend(handles=lam_axes[-1].collections[-1:], loc="outside lower center",
                    frameon=False)
-    fig.suptitle(f"{problem_title('ex5')}, $F = {F:g}$: {t.shape[1]} triangles, "
-                 f"{len(times) - 1} time steps")
+    fig.suptitle(f"{problem_title('ex5')}, $F = {F:g}$: Algorithm C, pass {iteration} "
+                 "(each time its slab's mesh)")
     save(fig, png, pdf)
+    d = np.load(reference_npz)
+    pc, tc, LAM, times = d["pc"], d["tc"], d["LAM"], d["times"]
     rows = [{"t": float(times[k + 1]), **slip_regions(pc, tc, LAM[k], F)}
             for k in range(len(LAM))]
     table = pd.DataFrame(rows)
@@ -89,6 +112,7 @@ def main(npz, times_shown, F, tol, png, pdf, md):
 
 if __name__ == "__main__":
     log_to(snakemake.log[0])  # noqa: F821
-    main(snakemake.input.npz, snakemake.params.times, snakemake.params.F,  # noqa: F821
+    main(snakemake.input.npz, snakemake.input.reference, snakemake.params.times,  # noqa: F821
+         snakemake.params.F,  # noqa: F821
          snakemake.params.tol, snakemake.output.png, snakemake.output.pdf,  # noqa: F821
          snakemake.output.md)  # noqa: F821

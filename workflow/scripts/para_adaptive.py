@@ -73,8 +73,15 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         keep_steps=True, solver_options={"tol": tol})
     last = recs[-1]
     for j, (t_out, snap) in enumerate(sorted(last.outputs.items())):
+        # the last pass's state at each output time (Figure 14): u_hτ on that slab's T_h,
+        # λ_H on its T_H (none at t = 0), and the end t_k of the step holding t_out
         arrays.update({f"p_last_{j}": snap["mesh"].p, f"t_last_{j}": snap["mesh"].t,
-                       f"time_last_{j}": t_out})
+                       f"time_last_{j}": t_out, f"tstep_last_{j}": snap["t_step"],
+                       f"u_last_{j}": snap["u"], f"pc_last_{j}": snap["coarse"].p,
+                       f"tc_last_{j}": snap["coarse"].t})
+        if snap["lam"] is not None:
+            arrays[f"lam_last_{j}"] = snap["lam"]
+    arrays["last_iteration"] = last.iteration
     fin = last.final
     arrays.update(p=fin["mesh"].p, t=fin["mesh"].t, pc=fin["coarse"].p, tc=fin["coarse"].t,
                   u=fin["u"], lam=fin["lam"], s=s, T=T,
