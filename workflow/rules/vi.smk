@@ -192,8 +192,8 @@ rule vi_adaptive:
 
 
 # The reference energy of Examples 2 and 3 where no exact one is known: the same Algorithm B
-# with the compressed operator, to reference.large.max_dofs fine DOFs (about 25 minutes and
-# 14 GB per problem at 1.5e5 DOFs on two cores).  Not part of `all`: its committed copy under
+# with the compressed operator, to reference.large.max_dofs fine DOFs (tens of minutes and
+# GBs per problem on two cores: elliptic-errors.md).  Not part of `all`: its committed copy under
 # reference.large.committed is used when it was computed for the same data (large_reference
 # in common.smk); `snakemake --cores 2 reference_large` recomputes it.
 rule vi_adaptive_large:

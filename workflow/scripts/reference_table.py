@@ -40,6 +40,8 @@ def main(refs, errors, ex1_csv, family, md):
                      "large uncertainty": info["large_uncertainty"],
                      "large check": info.get("large_check", np.nan),
                      "large efficiency": info["large_finest_eta"] / info["large_finest_error"],
+                     "large time [s]": info["large_seconds"],
+                     "large peak MB": info["large_peak_mb"],
                      "spread of the extrapolations": (np.nan if info["extrapolation_spread"]
                                                       is None else info["extrapolation_spread"]),
                      "families": info["extrapolation_families"],
@@ -66,7 +68,8 @@ def main(refs, errors, ex1_csv, family, md):
             "('large uncertainty'). On the printed Example 3 the same large series is "
             "extrapolated too and 'large check' is its distance to the exact energy, to be "
             "compared with its 'large uncertainty'. 'large efficiency': η / error on the "
-            "finest large mesh. 'extrapolated' and 'spread of the extrapolations' "
+            "finest large mesh; 'large time [s]', 'large peak MB': wall time and peak memory "
+            "of the whole large series (when it was computed, on two cores). 'extrapolated' and 'spread of the extrapolations' "
             f"(√(2|max E − min E|) over the {family}, uniform, graded and adaptive families' "
             "limits; 'families' counts those that exist) are cross-checks; the rate ranges "
             "are the fitted rates with each family's limit in turn as the reference. "

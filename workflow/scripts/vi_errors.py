@@ -37,6 +37,8 @@ def reference_energy(problem, exact, reference_family, series, large):
                  "large_finest_dofs": int(large.dofs.max()),
                  "large_finest_eta": float(large.sort_values("dofs").eta.iloc[-1]),
                  "large_finest_energy": float(large.sort_values("dofs").energy.iloc[-1]),
+                 "large_seconds": float(large.t_cumulative.max()),
+                 "large_peak_mb": float(large.peak_mem_mb.max()),
                  "large_provenance": {k: str(large[k].iloc[0]) for k in
                                       ("git_commit", "created", "operator") if k in large}})
     for name, g in series.groupby("family"):

@@ -118,6 +118,8 @@ GROUPS = [
         "large uncertainty": "√(2|E_∞ − E_∞'|), E_∞' the same limit without the finest run",
         "large check": "E exact: √(2|`large extrapolated` − E|), the true error of that limit",
         "large efficiency": "η / error on the finest mesh of the large series",
+        ("large time [s]", "large peak MB"): "wall time and peak memory of the whole large "
+                                              "series (measured when it was computed)",
         "finest error": "smallest error of any family",
         "spread of the extrapolations": "√(2|max − min|) of the families' limits",
         "families": "families whose extrapolation exists",
