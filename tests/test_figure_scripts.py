@@ -122,6 +122,7 @@ def test_reference_energy_is_the_limit_of_the_large_series():
     N = 113.0 * 2.1 ** np.arange(9)
     E = -0.6 + 0.3 * N ** -1.0 + 2.0 * N ** -1.5
     large = pd.DataFrame({"dofs": N.astype(int), "energy": E, "eta": 0.9 * N ** -0.5,
+                          "t_cumulative": np.cumsum(N) / 1e3, "peak_mem_mb": N / 10,
                           "data": json.dumps({"s": 0.5})})
     n = np.array([25.0, 113.0, 481.0, 1985.0])
     series = pd.DataFrame({"family": "uniform", "dofs": n, "energy": -0.58 + 0.2 * n ** -0.5})
@@ -131,6 +132,8 @@ def test_reference_energy_is_the_limit_of_the_large_series():
     assert info["large_uncertainty"] == expected["uncertainty"] > 0
     assert info["extrapolated_uniform"] == pytest.approx(-0.58, abs=1e-9)   # cross-check only
     assert info["large_finest_error"] == pytest.approx(energy_error(E[-1], ref))
+    assert info["large_seconds"] == pytest.approx(np.sum(N) / 1e3)
+    assert info["large_peak_mb"] == pytest.approx(N[-1] / 10)
     ref, info = vi_errors.reference_energy("ex3-printed", -0.6, "graded-sr", series, large)
     assert ref == -0.6
     assert info["large_check"] == pytest.approx(energy_error(expected["energy"], -0.6))

@@ -46,8 +46,10 @@ def test_extrapolation_uncertainty_vanishes_on_the_model_and_bounds_a_correction
     true_error = float(energy_error(out["energy"], -0.6))
     assert true_error > 1e-4                     # the correction does move the limit
     assert true_error <= out["uncertainty"] <= 5 * true_error
-    with pytest.raises(ValueError, match="four"):
-        extrapolation_uncertainty(N[:3], E[:3])
+    assert out["uncertainty"] == pytest.approx(np.sqrt(2 * max(
+        abs(out["energy"] - out["previous"]), abs(out["previous"] - out["before"]))))
+    with pytest.raises(ValueError, match="five"):
+        extrapolation_uncertainty(N[:4], E[:4])
 
 
 def test_energy_error_is_the_energy_norm_error_of_example_1():

@@ -112,10 +112,14 @@ def test_figure7_reuses_the_committed_large_reference(tmp_path):
     assert "workflow/data/reference/ex2.csv" in text
 
 
-def test_other_data_recompute_the_large_reference(tmp_path):
-    """A committed reference computed for other data is not used: changing Example 2's
-    order schedules the large run of Example 2 (and only that one)."""
-    (tmp_path / "s.yaml").write_text("example2:\n  s: 0.4\n")
+@pytest.mark.parametrize("change", ["example2:\n  s: 0.4\n",
+                                    "reference:\n  large:\n    theta: 0.4\n",
+                                    "quadrature:\n  kappa_order: 6\n"])
+def test_other_data_recompute_the_large_reference(tmp_path, change):
+    """A committed reference computed for other data or settings is not used: changing
+    Example 2's order, the large run's θ or the quadrature schedules the large run of
+    Example 2 for Figure 7."""
+    (tmp_path / "s.yaml").write_text(change)
     _, text = dry_run("--configfile", str(tmp_path / "s.yaml"), "--config",
                       f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
                       "--", f"{tmp_path}/o/fig07-ex2-error.png")

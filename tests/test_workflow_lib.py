@@ -59,3 +59,27 @@ def test_parabolic_pieces_are_the_steps_of_a_run(tmp_path):
     pieces, _ = parabolic_pieces(tmp_path / "run.npz")
     assert [(a, b) for a, b, _, _ in pieces] == [(0.0, 0.25), (0.25, 1.0)]
     np.testing.assert_array_equal(pieces[1][3], U[2])     # u on (t_1, t_2] is U[2]
+
+
+def test_mismatched_parameters_reads_back_csv_cells(tmp_path):
+    """A row written with parameter_columns and read back from CSV matches the same
+    parameters (lists as JSON, ints as floats, quadrature fields) and names each change."""
+    import json
+
+    import pandas as pd
+
+    import fracfem as ff
+    from fracfem_workflow.runs import mismatched_parameters, parameter_columns
+    expected = parameter_columns(quadrature=ff.QuadratureOptions(), theta=0.5, start_level=2,
+                                 max_dofs=100000, tol=1e-10, operator="auto",
+                                 data=json.dumps({"s": 0.5, "slope": 4.0}, sort_keys=True))
+    pd.DataFrame([expected]).to_csv(tmp_path / "row.csv", index=False)
+    row = pd.read_csv(tmp_path / "row.csv").iloc[0].to_dict()
+    assert mismatched_parameters(row, expected) == []
+    changed = {**expected, "theta": 0.4, "operator": "dense",
+               "quadrature_far_orders": json.dumps([0, 2, 4]),
+               "data": json.dumps({"s": 0.4, "slope": 4.0}, sort_keys=True)}
+    assert sorted(mismatched_parameters(row, changed)) == sorted(
+        ["theta", "operator", "quadrature_far_orders", "data"])
+    assert mismatched_parameters({k: v for k, v in row.items() if k != "tol"},
+                                 expected) == ["tol"]

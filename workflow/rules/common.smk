@@ -152,22 +152,47 @@ def committed_reference(problem, kind="table"):
     return Path(workflow.basedir) / config["reference"]["large"]["committed"] / name
 
 
+def large_parameters(wildcards):
+    """What a large run of this problem records and must match for its copy to be used:
+    the data, Algorithm B's settings, the solver tolerance and the quadrature."""
+    from fracfem import QuadratureOptions
+    from fracfem_workflow.runs import parameter_columns
+    L = config["reference"]["large"]
+    return parameter_columns(quadrature=QuadratureOptions(**QUADRATURE), theta=L["theta"],
+                             marking="maximum", start_level=L["start_level"],
+                             max_dofs=L["max_dofs"], tol=SOLVER["tol"], operator="auto",
+                             data=json.dumps(vi_data(wildcards), sort_keys=True))
+
+
 def large_reference(wildcards, kind="table"):
     """The large run a problem's errors are measured against (kind 'table'; 'meshes': its
-    meshes for Figure 6): the committed copy when that was computed for the same data (and
-    reference.large.recompute is false), else the run itself (rule vi_adaptive_large, tens
-    of minutes and GBs on two cores)."""
+    meshes for Figure 6): the committed copy when it was computed with the same data and
+    settings (large_parameters; for the meshes, with every reference.large.figure_steps)
+    and reference.large.recompute is false, else the run itself (rule vi_adaptive_large,
+    tens of minutes and GBs on two cores)."""
     problem = wildcards.problem
     table, path = committed_reference(problem), committed_reference(problem, kind)
-    if not config["reference"]["large"]["recompute"] and table.exists() and path.exists():
-        import pandas as pd
-        recorded = json.loads(pd.read_csv(table, usecols=["data"]).data.iloc[0])
-        if recorded == vi_data(wildcards):
-            return str(path)
-        logger.info(f"{table} was computed for {recorded}, not {vi_data(wildcards)}: "
-                    f"the reference of {problem} is recomputed (rule vi_adaptive_large)")
-    return f"{RES}/vi/{problem}/adaptive-large/" + ("steps.csv" if kind == "table"
-                                                    else "meshes.npz")
+    fresh = f"{RES}/vi/{problem}/adaptive-large/" + ("steps.csv" if kind == "table"
+                                                     else "meshes.npz")
+    if config["reference"]["large"]["recompute"] or not (table.exists() and path.exists()):
+        return fresh
+    import numpy as np
+    import pandas as pd
+    from fracfem_workflow.runs import mismatched_parameters
+    try:
+        row = pd.read_csv(table).iloc[0].to_dict()
+        differ = mismatched_parameters(row, large_parameters(wildcards))
+        if kind == "meshes":
+            kept = set(np.load(path)["steps"].tolist())
+            differ += [] if set(config["reference"]["large"]["figure_steps"]) <= kept else [
+                "figure_steps"]
+    except (OSError, ValueError, KeyError, IndexError) as err:
+        differ = [f"unreadable ({err})"]
+    if not differ:
+        return str(path)
+    logger.warning(f"{path} differs from this configuration in {', '.join(differ)}: the "
+                   f"reference of {problem} is recomputed (rule vi_adaptive_large)")
+    return fresh
 
 
 def para_example(wildcards):

@@ -209,10 +209,10 @@ rule vi_adaptive_large:
     params:
         example=vi_example,
         data=vi_data,
-        theta=config["vi_adaptive"]["theta"],
-        start_level=config["vi_adaptive"]["start_level"],
+        theta=config["reference"]["large"]["theta"],
+        start_level=config["reference"]["large"]["start_level"],
         max_dofs=config["reference"]["large"]["max_dofs"],
-        max_steps=config["vi_adaptive"]["max_steps"],
+        max_steps=config["reference"]["large"]["max_steps"],
         figure_steps=config["reference"]["large"]["figure_steps"],
         tol=SOLVER["tol"],
         quadrature=QUADRATURE,

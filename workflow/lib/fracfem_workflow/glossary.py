@@ -115,9 +115,9 @@ GROUPS = [
                       "(compressed operator; rule `vi_adaptive_large`)",
         "large extrapolated": "limit E_∞ through the large series' three finest energies: "
                               "E_ref where no energy is exact",
-        "large uncertainty": "√(2|E_∞ − E_∞'|), E_∞' the same limit without the finest run",
+        "large uncertainty": "√(2 max(|E_∞ − E_∞'|, |E_∞' − E_∞''|)), E_∞', E_∞'' the same "
+                             "limit without the finest run, without the two finest",
         "large check": "E exact: √(2|`large extrapolated` − E|), the true error of that limit",
-        "large efficiency": "η / error on the finest mesh of the large series",
         ("large time [s]", "large peak MB"): "wall time and peak memory of the whole large "
                                               "series (measured when it was computed)",
         "finest error": "smallest error of any family",
@@ -125,8 +125,8 @@ GROUPS = [
         "families": "families whose extrapolation exists",
         ("adaptive rate range", "graded rate range", "graded-sr rate range",
          "uniform rate range"):
-            "smallest … largest fitted rate of the family, each family's limit in turn the "
-            "reference",
+            "smallest … largest fitted rate of the family, each family's limit and the large "
+            "series' limit in turn the reference",
         "ratio": "`reference error` / `finest error`",
         ("efficiency min", "efficiency max", "max/min"): "extremes of `efficiency` along "
                                                          "the adaptive series, their ratio",

@@ -137,21 +137,26 @@ def extrapolate_energy(dofs, energies) -> dict:
 def extrapolation_uncertainty(dofs, energies) -> dict:
     """:func:`extrapolate_energy` through the three finest runs, and its uncertainty.
 
-    ``uncertainty`` = √(2 |E_∞ − E_∞'|) (the scale of :func:`energy_error`), E_∞' the
-    same extrapolation without the finest run: how much the limit still moves when
-    one more run is added.  Needs at least four runs.
+    ``uncertainty`` = √(2 max(|E_∞ − E_∞'|, |E_∞' − E_∞''|)) (the scale of
+    :func:`energy_error`), E_∞' and E_∞'' the same extrapolation without the finest run,
+    and without the two finest: how much the limit still moved over the last two runs
+    added.  Two changes rather than one, because the exponent fitted through three runs
+    of an adaptive series oscillates from window to window.  Needs at least five runs.
     """
     N = np.asarray(dofs, dtype=float)
     E = np.asarray(energies, dtype=float)
-    if N.shape != E.shape or N.ndim != 1 or len(N) < 4:
-        raise ValueError("extrapolation_uncertainty needs at least four (dofs, energy) pairs, "
+    if N.shape != E.shape or N.ndim != 1 or len(N) < 5:
+        raise ValueError("extrapolation_uncertainty needs at least five (dofs, energy) pairs, "
                          f"got {len(N)}")
     order = np.argsort(N)
     N, E = N[order], E[order]
     last = extrapolate_energy(N, E)
     previous = extrapolate_energy(N[:-1], E[:-1])
-    return {**last, "previous": previous["energy"],
-            "uncertainty": float(energy_error(last["energy"], previous["energy"]))}
+    before = extrapolate_energy(N[:-2], E[:-2])
+    change = max(abs(last["energy"] - previous["energy"]),
+                 abs(previous["energy"] - before["energy"]))
+    return {**last, "previous": previous["energy"], "before": before["energy"],
+            "uncertainty": float(np.sqrt(2.0 * change))}
 
 
 def energy_error(energy, reference) -> np.ndarray:

@@ -10,7 +10,8 @@ import numpy as np
 
 from .logs import log_to
 
-__all__ = ["start", "parameter_columns", "parameter_names", "parabolic_pieces"]
+__all__ = ["start", "parameter_columns", "parameter_names", "parabolic_pieces",
+           "mismatched_parameters"]
 
 # scalar parameters recorded in result rows (besides the quadrature_<field> columns)
 PARAMETERS = ("grading", "theta", "marking", "start_level", "max_dofs", "solver", "cross_check",
@@ -48,6 +49,32 @@ def parameter_columns(quadrature=None, **parameters) -> dict:
         cols.update({f"quadrature_{f.name}": _cell(getattr(quadrature, f.name))
                      for f in dataclasses.fields(quadrature)})
     return cols
+
+
+def _same(recorded, expected) -> bool:
+    """One recorded cell (as read back from CSV) against the value a run would record."""
+    if isinstance(expected, (dict, list, tuple)) or (isinstance(expected, str)
+                                                     and expected.startswith(("[", "{"))):
+        try:
+            rec = json.loads(recorded) if isinstance(recorded, str) else recorded
+            exp = json.loads(expected) if isinstance(expected, str) else expected
+        except (TypeError, ValueError):
+            return False
+        return rec == (list(exp) if isinstance(exp, tuple) else exp)
+    if isinstance(expected, (bool, np.bool_)) or isinstance(recorded, (bool, np.bool_)):
+        return str(recorded) == str(expected)
+    try:
+        return bool(np.isclose(float(recorded), float(expected), rtol=1e-12, atol=0.0))
+    except (TypeError, ValueError):
+        return str(recorded) == str(expected)
+
+
+def mismatched_parameters(recorded: dict, expected: dict) -> list[str]:
+    """The keys of ``expected`` (parameters a run would record, e.g. by
+    :func:`parameter_columns`) whose value differs from, or is missing in, ``recorded``
+    (a result row read back from its CSV): empty when the recorded run is the one
+    these parameters would produce."""
+    return [k for k, v in expected.items() if k not in recorded or not _same(recorded[k], v)]
 
 
 def parameter_names(columns) -> list[str]:
