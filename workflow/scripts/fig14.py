@@ -63,7 +63,18 @@ def main(npz, reference_npz, times_shown, F, tol, png, pdf, md):
     for j, ts in enumerate(times_shown):
         time, t_step, p, t, u, pc, tc, lam = at[round(float(ts), 12)]
         ax = fig.add_subplot(2, n, j + 1, projection="3d")
-        if time > 0 and is_zero(u, u0_max, tol):
+        stick = lam is not None and not friction_states(lam, F).any()
+        if stick and not is_zero(u, u0_max, tol):
+            # every coarse element sticks: the constraint holds all coarse means of u_hτ at
+            # zero, and what is left is an oscillation within the fine space, not the solution
+            surface(ax, p, t, np.zeros_like(u), cmap="Greys", vmin=-1, vmax=1)
+            ax.set_zlim(-1, 1)
+            ax.set_zticks([0])
+            ax.set_title(rf"$u_{{h\tau}}$, $t = {time:.2f}$: stick everywhere")
+            ax.text2D(0.5, 0.92, r"coarse means of $u_{h\tau}$ are 0;" "\n"
+                      rf"$\max|u_{{h\tau}}| = {sci(np.abs(u).max())}$ (fine-scale)",
+                      transform=ax.transAxes, ha="center", va="top", fontsize="small")
+        elif time > 0 and is_zero(u, u0_max, tol):
             # round-off of a solution that has decayed to zero: draw the zero it is
             surface(ax, p, t, np.zeros_like(u), cmap="Greys", vmin=-1, vmax=1)
             ax.set_zlim(-1, 1)
@@ -81,7 +92,6 @@ def main(npz, reference_npz, times_shown, F, tol, png, pdf, md):
             tp = ax2.tripcolor(pc[0], pc[1], tc.T, facecolors=lam, cmap="coolwarm",
                                vmin=-F, vmax=F, edgecolors="none")
             slip_boundaries(ax2, pc, tc, lam, F)
-            stick = not friction_states(lam, F).any()
             ax2.set_title(rf"$\lambda_H$, $t = {time:.2f}$"
                           + (": stick everywhere" if stick else ""))
             lam_axes.append(ax2)

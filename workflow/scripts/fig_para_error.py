@@ -22,6 +22,8 @@ def main(csvs, png, pdf):
                                 f"{fit_rate(g.spacetime_dofs, g.eta):.3f}")
         ax.axhline(df.reference_error_estimate.iloc[0], color="grey", lw=0.7, ls="--",
                    label="reference's own error (estimate)")
+        ax.axhline(3 * df.reference_error_estimate.iloc[0], color="grey", lw=0.7, ls=":",
+                   label="3× that: fits use only errors above")
         ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$")
         ax.set_xlabel(SPACETIME_DOFS)
         legend_below(ax)
