@@ -90,7 +90,8 @@ def main(argv=None):
     rows = run(args.example, args.s, args.theta, args.max_dofs, args.max_steps)
     intro = (f"Algorithm B, {args.example} (s = {args.s}, θ = {args.theta}, marking "
              f"η(Δ) > θ·η_max, from disk_uniform(2)), operator and pointwise (−Δ)ˢu_h "
-             f"'auto' (compressed above 8,000 free nodes): "
+             f"'auto' (compressed above 8,000 free nodes), each solve started from the "
+             f"previous step's solution (warm_start): "
              f"`python benchmarks/bench_adaptive.py {' '.join(argv or sys.argv[1:])}`. "
              f"1-minute load average {load[0]:.1f} before the first step and "
              f"{os.getloadavg()[0]:.1f} after the last (2 cores); peak_rss_mb is the "
