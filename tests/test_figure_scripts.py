@@ -61,7 +61,7 @@ def adaptive_data(tmp_path, run):
     d = np.load(run)
     arrays = {"last_iteration": 3}
     for j, time in enumerate(d["times"]):
-        arrays.update({f"time_last_{j}": time, f"tstep_last_{j}": time, f"p_last_{j}": d["p"],
+        arrays.update({f"time_last_{j}": time, f"p_last_{j}": d["p"],
                        f"t_last_{j}": d["t"], f"u_last_{j}": d["U"][j],
                        f"pc_last_{j}": d["pc"], f"tc_last_{j}": d["tc"]})
         if j > 0:

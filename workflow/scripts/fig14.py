@@ -32,15 +32,24 @@ def sci(x):
     return (f"{mantissa} \\times " if mantissa != "1" else "") + f"10^{{{int(exponent)}}}"
 
 
+def zero_panel(ax, p, t, title, note):
+    """u_hτ drawn as the zero it is, with the title and a note saying why."""
+    surface(ax, p, t, np.zeros(p.shape[1]), cmap="Greys", vmin=-1, vmax=1)
+    ax.set_zlim(-1, 1)
+    ax.set_zticks([0])
+    ax.set_title(title)
+    ax.text2D(0.5, 0.92, note, transform=ax.transAxes, ha="center", va="top",
+              fontsize="small")
+
+
 def adaptive_states(npz):
-    """The last Algorithm C pass's states at its output times: [(t, t_step, p, t, u, pc,
-    tc, λ_H or None)], ordered by t, and the pass number."""
+    """The last Algorithm C pass's states at its output times: [(t, p, t, u, pc, tc, λ_H
+    or None)], ordered by t, and the pass number."""
     d = np.load(npz)
     states = []
     j = 0
     while f"time_last_{j}" in d:
-        states.append((float(d[f"time_last_{j}"]), float(d[f"tstep_last_{j}"]),
-                       d[f"p_last_{j}"], d[f"t_last_{j}"], d[f"u_last_{j}"],
+        states.append((float(d[f"time_last_{j}"]), d[f"p_last_{j}"], d[f"t_last_{j}"], d[f"u_last_{j}"],
                        d[f"pc_last_{j}"], d[f"tc_last_{j}"],
                        d[f"lam_last_{j}"] if f"lam_last_{j}" in d else None))
         j += 1
@@ -56,33 +65,24 @@ def main(npz, reference_npz, times_shown, F, tol, png, pdf, md):
     if missing or 0.0 not in at:
         raise ValueError(f"times {missing or [0.0]} are not output times of {npz} "
                          f"({sorted(at)}): add them to parabolic.output_times")
-    u0_max = np.abs(at[0.0][4]).max()
+    u0_max = np.abs(at[0.0][3]).max()
     n = len(times_shown)
     fig = plt.figure(figsize=(3.4 * n, 6.8))
     lam_axes, tp = [], None
     for j, ts in enumerate(times_shown):
-        time, t_step, p, t, u, pc, tc, lam = at[round(float(ts), 12)]
+        time, p, t, u, pc, tc, lam = at[round(float(ts), 12)]
         ax = fig.add_subplot(2, n, j + 1, projection="3d")
         stick = lam is not None and not friction_states(lam, F).any()
+        peak = rf"$\max|u_{{h\tau}}| = {sci(np.abs(u).max())}$"
         if stick and not is_zero(u, u0_max, tol):
             # every coarse element sticks: the constraint holds all coarse means of u_hτ at
             # zero, and what is left is an oscillation within the fine space, not the solution
-            surface(ax, p, t, np.zeros_like(u), cmap="Greys", vmin=-1, vmax=1)
-            ax.set_zlim(-1, 1)
-            ax.set_zticks([0])
-            ax.set_title(rf"$u_{{h\tau}}$, $t = {time:.2f}$: stick everywhere")
-            ax.text2D(0.5, 0.92, r"coarse means of $u_{h\tau}$ are 0;" "\n"
-                      rf"$\max|u_{{h\tau}}| = {sci(np.abs(u).max())}$ (fine-scale)",
-                      transform=ax.transAxes, ha="center", va="top", fontsize="small")
+            zero_panel(ax, p, t, rf"$u_{{h\tau}}$, $t = {time:.2f}$: stick everywhere",
+                       r"coarse means of $u_{h\tau}$ are 0;" "\n" + peak + " (fine-scale)")
         elif time > 0 and is_zero(u, u0_max, tol):
             # round-off of a solution that has decayed to zero: draw the zero it is
-            surface(ax, p, t, np.zeros_like(u), cmap="Greys", vmin=-1, vmax=1)
-            ax.set_zlim(-1, 1)
-            ax.set_zticks([0])
-            ax.set_title(rf"$u_{{h\tau}}$, $t = {time:.2f}$: $u_{{h\tau}} \equiv 0$")
-            ax.text2D(0.5, 0.92, rf"$\max|u_{{h\tau}}| = {sci(np.abs(u).max())}$"
-                      "\n" rf"$\leq {sci(tol)}\,\max|u_h(0)|$ (solver tolerance)",
-                      transform=ax.transAxes, ha="center", va="top", fontsize="small")
+            zero_panel(ax, p, t, rf"$u_{{h\tau}}$, $t = {time:.2f}$: $u_{{h\tau}} \equiv 0$",
+                       peak + "\n" rf"$\leq {sci(tol)}\,\max|u_h(0)|$ (solver tolerance)")
         else:
             surface(ax, p, t, u)
             ax.set_title(rf"$u_{{h\tau}}$, $t = {time:.2f}$ ({t.shape[1]:,} triangles)")

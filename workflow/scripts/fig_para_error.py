@@ -3,7 +3,8 @@ import pandas as pd
 
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import (ERROR_LABELS, FAMILY_LABELS, SPACETIME_DOFS,
-                                        legend_below, plt, problem_title, rate_series, save)
+                                        legend_below, plt, problem_title, rate_series,
+                                        reference_error_lines, save)
 from fracfem_workflow.report import fit_rate, paper_rate
 
 
@@ -20,10 +21,7 @@ def main(csvs, png, pdf):
                 ax.loglog(g.spacetime_dofs, g.eta, ls=":", marker=".", color="k",
                           label=rf"estimator $\eta$ ({FAMILY_LABELS[fam]}): "
                                 f"{fit_rate(g.spacetime_dofs, g.eta):.3f}")
-        ax.axhline(df.reference_error_estimate.iloc[0], color="grey", lw=0.7, ls="--",
-                   label="reference's own error (estimate)")
-        ax.axhline(3 * df.reference_error_estimate.iloc[0], color="grey", lw=0.7, ls=":",
-                   label="3× that: fits use only errors above")
+        reference_error_lines(ax, df.reference_error_estimate.iloc[0], "estimate")
         ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$")
         ax.set_xlabel(SPACETIME_DOFS)
         legend_below(ax)

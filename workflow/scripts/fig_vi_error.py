@@ -3,7 +3,7 @@ import pandas as pd
 
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, legend_below, plt, problem_title,
-                                        rate_series, save)
+                                        rate_series, reference_error_lines, save)
 from fracfem_workflow.report import fit_rate, paper_rate
 
 
@@ -20,10 +20,7 @@ def panel(ax, df):
                       label=rf"estimator $\eta$ (adaptive): {fit_rate(g.dofs, g.eta):.3f}")
     ref_err = df.reference_error.max()
     if ref_err > 0:
-        ax.axhline(ref_err, color="grey", lw=0.7, ls="--",
-                   label="reference's own error (measured uncertainty)")
-        ax.axhline(3 * ref_err, color="grey", lw=0.7, ls=":",
-                   label="3× that: fits use only errors above")
+        reference_error_lines(ax, ref_err, "measured uncertainty")
     ref = "exact" if ex == 3 and var == "printed" else "extrapolated (large adaptive run)"
     ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$; "
                  f"reference energy {ref}")

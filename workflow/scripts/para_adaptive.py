@@ -74,10 +74,9 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     last = recs[-1]
     for j, (t_out, snap) in enumerate(sorted(last.outputs.items())):
         # the last pass's state at each output time (Figure 14): u_hτ on that slab's T_h,
-        # λ_H on its T_H (none at t = 0), and the end t_k of the step holding t_out
+        # λ_H on its T_H (none at t = 0)
         arrays.update({f"p_last_{j}": snap["mesh"].p, f"t_last_{j}": snap["mesh"].t,
-                       f"time_last_{j}": t_out, f"tstep_last_{j}": snap["t_step"],
-                       f"u_last_{j}": snap["u"], f"pc_last_{j}": snap["coarse"].p,
+                       f"time_last_{j}": t_out, f"u_last_{j}": snap["u"], f"pc_last_{j}": snap["coarse"].p,
                        f"tc_last_{j}": snap["coarse"].t})
         if snap["lam"] is not None:
             arrays[f"lam_last_{j}"] = snap["lam"]

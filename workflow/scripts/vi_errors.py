@@ -21,7 +21,7 @@ from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import (energy_error, extrapolate_energy, extrapolation_uncertainty,
                                      fit_rate)
-from fracfem_workflow.runs import parameter_names, start
+from fracfem_workflow.runs import mismatched_parameters, parameter_names, start
 
 logger = script_logger("vi_errors")
 
@@ -33,11 +33,11 @@ def reference_energy(problem, exact, reference_family, series, large):
     large Algorithm B series (dofs, energy)."""
     info = {"problem": problem, "reference_family": reference_family}
     big = extrapolation_uncertainty(large.dofs, large.energy)
+    finest = large.loc[large.dofs.idxmax()]
     info.update({"extrapolated_large": big["energy"], "beta_large": big["beta"],
                  "dofs_large": big["dofs_used"], "large_uncertainty": big["uncertainty"],
-                 "large_finest_dofs": int(large.dofs.max()),
-                 "large_finest_eta": float(large.sort_values("dofs").eta.iloc[-1]),
-                 "large_finest_energy": float(large.sort_values("dofs").energy.iloc[-1]),
+                 "large_finest_dofs": int(finest.dofs),
+                 "large_finest_energy": float(finest.energy),
                  "large_seconds": float(large.t_cumulative.max()),
                  "large_peak_mb": float(large.peak_mem_mb.max()),
                  "large_provenance": {k: str(large[k].iloc[0]) for k in
@@ -65,10 +65,10 @@ def reference_energy(problem, exact, reference_family, series, large):
 
 def check_data(large, problem, data):
     """``large`` (a large series' table) if it was computed for ``data``, else ValueError."""
-    recorded = json.loads(large.data.iloc[0])
-    if recorded != data:
-        raise ValueError(f"the large reference series of {problem} was computed for {recorded}, "
-                         f"not for this run's data {data}")
+    if mismatched_parameters(large.iloc[0].to_dict(),
+                             {"data": json.dumps(data, sort_keys=True)}):
+        raise ValueError(f"the large reference series of {problem} was computed for "
+                         f"{large.data.iloc[0]}, not for this run's data {data}")
     return large
 
 

@@ -53,6 +53,15 @@ def legend_below(ax):
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize=8, frameon=False)
 
 
+def reference_error_lines(ax, reference_error, how):
+    """The reference's own error (dashed; ``how`` it was obtained) and 3× it (dotted), the
+    bound above which report.fit_mask lets a run into a rate fit."""
+    ax.axhline(reference_error, color="grey", lw=0.7, ls="--",
+               label=f"reference's own error ({how})")
+    ax.axhline(3 * reference_error, color="grey", lw=0.7, ls=":",
+               label="3× that: fits use only errors above")
+
+
 # Axis labels: what is measured, in the paper's symbols.
 DOFS = "degrees of freedom"
 SPACETIME_DOFS = "space-time degrees of freedom"
