@@ -20,6 +20,7 @@ rule para_solve:
         tau_factor=para_tau_factor,
         tol=SOLVER["tol"],
         quadrature=QUADRATURE,
+        operator=lambda w: PARA["reference"]["operator"] if w.family == "reference" else "dense",
     threads: 2
     conda:
         ENV

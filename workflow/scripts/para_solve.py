@@ -22,15 +22,16 @@ def multiplier_counts(obstacle, lam, upper):
 
 
 def main(problem, family, tag, example, data, grading, T, tau_factor, tol, quadrature, row,
-         npz, log=None, threads=None):
+         npz, log=None, threads=None, operator="dense"):
     """problem, family, tag: the run's name; example, data: fracfem.example(example, **data);
-    τ = tau_factor · h_max^{2s}."""
+    τ = tau_factor · h_max^{2s}; operator: 'dense', 'compressed' or 'auto' (the large
+    reference run)."""
     start(log, threads)
     t_start = time.perf_counter()
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
     obstacle = example == "ex4"
-    prob = ex.problem(ff.multiplier_mesh(tag, grading), quad)
+    prob = ex.problem(ff.multiplier_mesh(tag, grading), quad, operator=operator)
     s = prob.disc.s
     h = mesh_size(prob.fine)
     times = ff.time_grid(T=T, tau=ff.time_step(h, s, tau_factor))
@@ -69,8 +70,9 @@ def main(problem, family, tag, example, data, grading, T, tau_factor, tol, quadr
         "t_wall": time.perf_counter() - t_start,
         "pdas_iterations_max": max(r["iterations"] for r in per_step),
         "peak_mem_mb": peak_memory_mb(),
+        "operator_used": prob.disc.info["operator"],
         **parameter_columns(quadrature=quad, grading=grading, T=T, tau_factor=tau_factor,
-                            solver="pdas", tol=tol),
+                            solver="pdas", tol=tol, operator=operator, data=data),
         **provenance()}
     logger.info("%s", result)
     save_arrays(npz, p=prob.fine.p, t=prob.fine.t, pc=prob.coarse.p, tc=prob.coarse.t,
@@ -84,4 +86,5 @@ if __name__ == "__main__":
          snakemake.wildcards.tag, snakemake.params.example, snakemake.params.data,  # noqa: F821
          snakemake.params.grading, snakemake.params.T, snakemake.params.tau_factor,  # noqa: F821
          snakemake.params.tol, snakemake.params.quadrature, snakemake.output.row,  # noqa: F821
-         snakemake.output.npz, snakemake.log[0], snakemake.threads)  # noqa: F821
+         snakemake.output.npz, snakemake.log[0], snakemake.threads,  # noqa: F821
+         snakemake.params.operator)  # noqa: F821
