@@ -16,7 +16,7 @@ from .assembly import mesh_arrays
 from .meshes import validates
 
 __all__ = ["locate", "interpolation_matrix", "interpolate", "interpolate_at", "transfer",
-           "space_time_distance"]
+           "space_time_distance", "SpaceTimeReference"]
 
 
 def _element_maps(mesh):
@@ -128,8 +128,85 @@ def interpolate(mesh_from, u, mesh_to) -> np.ndarray:
     return interpolation_matrix(mesh_from, mesh_to.p) @ u
 
 
+def _contiguous(name, pcs):
+    """Check that pieces (t0, t1, mesh, u) follow one another in time; their time edges."""
+    if not pcs:
+        raise ValueError(f"{name} is empty")
+    for k in range(len(pcs) - 1):
+        if not np.isclose(pcs[k][1], pcs[k + 1][0], rtol=0, atol=1e-12 * abs(pcs[-1][1])):
+            raise ValueError(f"{name} are not contiguous in time: piece {k} ends at "
+                             f"{pcs[k][1]}, piece {k + 1} starts at {pcs[k + 1][0]}")
+    return np.array([pcs[0][0]] + [pc[1] for pc in pcs], dtype=float)
+
+
+class SpaceTimeReference:
+    """A reference function, piecewise constant in time on one mesh, to measure
+    many functions against: ``distance(pieces)`` is ‖I u − u_ref‖_{L²(0,T; a)}.
+
+    ``reference``: list of (t0, t1, mesh, u) on one mesh (u on all its nodes);
+    ``A_ref``: the free-node matrix of that mesh (an array or an operator with
+    ``@``); ``free_ref``: its free nodes.  On each interval of the union of the two
+    time grids e = I u_i − u_ref,j and A e = A I u_i − A u_ref,j, so the matrix
+    is applied once per reference piece (kept for later distances) and once per
+    piece of u, not once per interval: with a compressed A of a large reference
+    this is what makes measuring a whole series affordable.
+    """
+
+    def __init__(self, reference, A_ref, free_ref):
+        self.edges = _contiguous("reference", reference)
+        self.mesh = reference[0][2]
+        if any(pc[2] is not self.mesh for pc in reference):
+            raise ValueError("the reference pieces must all live on one mesh")
+        self.A, self.free = A_ref, np.asarray(free_ref)
+        self.values = [np.asarray(pc[3], dtype=float)[self.free] for pc in reference]
+        self._A_values: dict = {}
+        self.matvecs = 0
+
+    def _A_ref(self, j):
+        if j not in self._A_values:
+            self._A_values[j] = self._apply(self.values[j])
+        return self._A_values[j]
+
+    def _apply(self, x):
+        self.matvecs += 1
+        return np.asarray(self.A @ x, dtype=float)
+
+    def distance(self, pieces) -> float:
+        """‖I u − u_ref‖_{L²(0,T; a)}: u is interpolated onto the reference mesh
+        (nodal interpolation, zero outside its mesh); the time integral is exact
+        on the union of both time grids, which must cover the same interval."""
+        ta, tb = _contiguous("pieces", pieces), self.edges
+        tol = 1e-12 * max(abs(ta[-1]), abs(tb[-1]), 1e-300)
+        if abs(ta[0] - tb[0]) > tol or abs(ta[-1] - tb[-1]) > tol:
+            raise ValueError(f"time intervals differ: [{ta[0]}, {ta[-1]}] vs "
+                             f"[{tb[0]}, {tb[-1]}]")
+        maps, on_ref = {}, {}
+
+        def piece(i):                  # (I u_i, A I u_i) on the reference's free nodes
+            if i not in on_ref:
+                mesh = pieces[i][2]
+                if id(mesh) not in maps:
+                    maps[id(mesh)] = (mesh, interpolation_matrix(mesh, self.mesh.p)[self.free])
+                v = maps[id(mesh)][1] @ np.asarray(pieces[i][3], dtype=float)
+                on_ref.clear()         # pieces are visited in time order
+                on_ref[i] = (v, self._apply(v))
+            return on_ref[i]
+
+        grid = np.union1d(ta, tb)
+        grid = grid[np.concatenate([[True], np.diff(grid) > 1e-12 * max(1.0, abs(grid[-1]))])]
+        total = 0.0
+        for a, b in zip(grid[:-1], grid[1:]):
+            mid = 0.5 * (a + b)
+            i = int(np.clip(np.searchsorted(ta, mid) - 1, 0, len(pieces) - 1))
+            j = int(np.clip(np.searchsorted(tb, mid) - 1, 0, len(self.values) - 1))
+            v, Av = piece(i)
+            total += (b - a) * float((v - self.values[j]) @ (Av - self._A_ref(j)))
+        return float(np.sqrt(max(total, 0.0)))
+
+
 def space_time_distance(pieces, reference, A_ref, free_ref) -> float:
-    """‖I u − u_ref‖_{L²(0,T; a)} for functions piecewise constant in time.
+    """‖I u − u_ref‖_{L²(0,T; a)} for functions piecewise constant in time
+    (one distance; :class:`SpaceTimeReference` measures many against one reference).
 
     ``pieces`` and ``reference`` are lists of (t0, t1, mesh, u): on (t0, t1] the
     function is the P1 function u (all nodes) on mesh.  u is interpolated onto
@@ -138,38 +215,4 @@ def space_time_distance(pieces, reference, A_ref, free_ref) -> float:
     reference pieces sharing one mesh.  The time integral is exact on the union
     of both time grids, which must cover the same interval.
     """
-    def edges(pcs):
-        return np.array([pcs[0][0]] + [pc[1] for pc in pcs], dtype=float)
-
-    for name, pcs in (("pieces", pieces), ("reference", reference)):
-        if not pcs:
-            raise ValueError(f"{name} is empty")
-        for k in range(len(pcs) - 1):
-            if not np.isclose(pcs[k][1], pcs[k + 1][0], rtol=0, atol=1e-12 * abs(pcs[-1][1])):
-                raise ValueError(f"{name} are not contiguous in time: piece {k} ends at "
-                                 f"{pcs[k][1]}, piece {k + 1} starts at {pcs[k + 1][0]}")
-    ta, tb = edges(pieces), edges(reference)
-    tol = 1e-12 * max(abs(ta[-1]), abs(tb[-1]), 1e-300)
-    if abs(ta[0] - tb[0]) > tol or abs(ta[-1] - tb[-1]) > tol:
-        raise ValueError(f"time intervals differ: [{ta[0]}, {ta[-1]}] vs [{tb[0]}, {tb[-1]}]")
-    ref_mesh = reference[0][2]
-    if any(pc[2] is not ref_mesh for pc in reference):
-        raise ValueError("the reference pieces must all live on one mesh")
-    cache = {}
-
-    def on_ref(mesh, u):
-        key = id(mesh)
-        if key not in cache:
-            cache[key] = (mesh, interpolation_matrix(mesh, ref_mesh.p)[free_ref])
-        return cache[key][1] @ u
-
-    grid = np.union1d(ta, tb)
-    grid = grid[np.concatenate([[True], np.diff(grid) > 1e-12 * max(1.0, abs(grid[-1]))])]
-    total = 0.0
-    for a, b in zip(grid[:-1], grid[1:]):
-        mid = 0.5 * (a + b)
-        i = int(np.clip(np.searchsorted(ta, mid) - 1, 0, len(pieces) - 1))
-        j = int(np.clip(np.searchsorted(tb, mid) - 1, 0, len(reference) - 1))
-        e = on_ref(pieces[i][2], pieces[i][3]) - reference[j][3][free_ref]
-        total += (b - a) * float(e @ (A_ref @ e))
-    return float(np.sqrt(max(total, 0.0)))
+    return SpaceTimeReference(reference, A_ref, free_ref).distance(pieces)

@@ -64,6 +64,54 @@ def test_space_time_distance_is_exact_for_piecewise_constant_functions():
         space_time_distance([(0, 0.5, mesh, w)], [(0, 1, mesh, w)], A, fr)
 
 
+def _direct_distance(pieces, reference, A, free):
+    """The slow reference of SpaceTimeReference: e and A e formed on every interval of
+    the union time grid."""
+    ref_mesh = reference[0][2]
+    ta = np.array([pieces[0][0]] + [pc[1] for pc in pieces])
+    tb = np.array([reference[0][0]] + [pc[1] for pc in reference])
+    grid = np.union1d(ta, tb)
+    total = 0.0
+    for a, b in zip(grid[:-1], grid[1:]):
+        i = np.searchsorted(ta, 0.5 * (a + b)) - 1
+        j = np.searchsorted(tb, 0.5 * (a + b)) - 1
+        e = interpolate(pieces[i][2], pieces[i][3], ref_mesh)[free] - reference[j][3][free]
+        total += (b - a) * e @ (A @ e)
+    return np.sqrt(total)
+
+
+@pytest.mark.parametrize("operator", ["dense", "compressed"])
+def test_space_time_reference_matches_the_direct_sum_and_applies_A_once_per_piece(operator):
+    from fracfem import discretise
+    from fracfem.transfer import SpaceTimeReference
+
+    ref_mesh, coarse = disk_uniform(3), disk_uniform(2)
+    other = refine_disk(coarse, np.arange(0, coarse.t.shape[1], 2))
+    disc = discretise(ref_mesh, 0.5, operator=operator)
+    rng = np.random.default_rng(3)
+    ref_t = np.linspace(0, 1, 8)                   # 7 reference pieces
+    reference = [(a, b, ref_mesh, disc.extend(rng.standard_normal(len(disc.free))))
+                 for a, b in zip(ref_t[:-1], ref_t[1:])]
+
+    def run(mesh, edges):
+        vals = [rng.standard_normal(mesh.p.shape[1]) for _ in edges[1:]]
+        for v in vals:
+            v[mesh.boundary_nodes()] = 0.0
+        return [(a, b, mesh, v) for a, b, v in zip(edges[:-1], edges[1:], vals)]
+
+    # a coarse run on 3 steps, then one on two meshes (time slabs) with 5 steps
+    runs = [run(coarse, np.linspace(0, 1, 4)),
+            run(coarse, [0, 0.2, 0.45]) + run(other, [0.45, 0.7, 0.8, 1.0])]
+    ref = SpaceTimeReference(reference, disc.A, disc.free)
+    for k, pieces in enumerate(runs):
+        d = ref.distance(pieces)
+        assert d == pytest.approx(_direct_distance(pieces, reference, disc.A, disc.free),
+                                  rel=1e-10)
+        # A: once per reference piece (kept) and once per run piece
+        assert ref.matvecs == 7 + sum(len(r) for r in runs[:k + 1])
+    assert ref.distance(reference) < 1e-12 * d   # interpolation at its own nodes
+
+
 def test_space_time_distance_refuses_gaps_and_mixed_reference_meshes():
     from fracfem import discretise
     from fracfem.transfer import space_time_distance

@@ -1,49 +1,81 @@
-"""Errors of Examples 4, 5 in L²(0,T; H^s): ‖I u_hτ − u_ref‖ against the reference run.
+"""Errors of Examples 4, 5 in L²(0,T; H^s): ‖I u_hτ − u_ref‖ against the reference run,
+and the reference's own error, measured.
 
 I is nodal interpolation onto the reference's fine mesh (zero outside a run's
 polygon); both functions are piecewise constant in time, the time integral is
-exact on the union of the two time grids (fracfem.transfer.space_time_distance);
+exact on the union of the two time grids (fracfem.transfer.SpaceTimeReference);
 the norm is the a-norm of the reference mesh.
+
+The reference's error: its family (same grading and τ factor) at two coarser h,
+u₁ (coarsest), u₂, u₃ = the reference.  With d₁₂ = ‖u₁ − u₂‖ (a-norm of u₂'s
+mesh) and d₂₃ = ‖u₂ − u₃‖ and the ratio r = d₂₃/d₁₂ of consecutive distances,
+a series converging geometrically with that ratio has ‖u₃ − u‖ = d₂₃ r/(1 − r).
+The manufactured-solution check (para_reference_check) measures this estimate
+against an exact error.
 """
 
 import numpy as np
 import pandas as pd
 
 import fracfem as ff
-from fracfem.transfer import space_time_distance
+from fracfem.transfer import SpaceTimeReference
 from fracfem_workflow.io import write_table
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.report import fit_rate
 from fracfem_workflow.runs import parabolic_pieces, start
 
 logger = script_logger("para_errors")
 
 
-def main(rows, npzs, ref, adaptive, quadrature, csv, log=None, threads=None):
-    """rows, npzs: the uniform and graded runs (same order); ref: the reference run;
-    adaptive: Algorithm C's table (its errors are computed there)."""
-    start(log, threads)
+def geometric_tail(d12: float, d23: float) -> tuple[float, float]:
+    """(r, d₂₃ r/(1 − r)): the error of the finest of three runs whose consecutive
+    distances are d₁₂, d₂₃, if the series converges geometrically with ratio r."""
+    r = d23 / d12
+    if not 0.0 < r < 1.0:
+        raise RuntimeError(f"the reference family does not converge: distances "
+                           f"d12 = {d12:.4g}, d23 = {d23:.4g} (ratio {r:.3g}); refine the "
+                           "reference (parabolic.reference.graded_h)")
+    return r, d23 * r / (1.0 - r)
+
+
+def reference_error(ref, coarser, quadrature):
+    """(SpaceTimeReference of the reference run, s, its info: the measured error
+    and the distances behind it); coarser: the family's two coarser runs."""
     ref_pieces, d = parabolic_pieces(ref)
     s = float(d["s"])
-    logger.info("reference solution %s: %d time steps on %d nodes; assembling its matrix",
+    quad = ff.QuadratureOptions(**quadrature)
+    logger.info("reference solution %s: %d time steps on %d nodes; assembling its operator",
                 ref, len(ref_pieces), ref_pieces[0][2].p.shape[1])
-    disc = ff.discretise(ref_pieces[0][2], s, 0.0, quadrature=ff.QuadratureOptions(**quadrature))
+    disc = ff.discretise(ref_pieces[0][2], s, 0.0, quadrature=quad, operator="auto")
+    reference = SpaceTimeReference(ref_pieces, disc.A, disc.free)
+    u1, _ = parabolic_pieces(coarser[0])
+    u2, _ = parabolic_pieces(coarser[1])
+    disc2 = ff.discretise(u2[0][2], s, 0.0, quadrature=quad, operator="auto")
+    d12 = SpaceTimeReference(u2, disc2.A, disc2.free).distance(u1)
+    d23 = reference.distance(u2)
+    r, err = geometric_tail(d12, d23)
+    logger.info("reference family: d12 = %.4e, d23 = %.4e, ratio %.3f: reference error "
+                "%.4e", d12, d23, r, err)
+    info = {"reference_spacetime_dofs": len(disc.free) * len(ref_pieces),
+            "reference_dofs": len(disc.free), "reference_steps": len(ref_pieces),
+            "reference_d12": d12, "reference_d23": d23, "reference_ratio": r,
+            "reference_error_estimate": err, "reference_error": err}
+    return reference, s, info
+
+
+def main(rows, npzs, ref, coarser, adaptive, quadrature, csv, log=None, threads=None):
+    """rows, npzs: the uniform and graded runs (same order); ref: the reference run;
+    coarser: its family's two coarser runs (coarsest first); adaptive: Algorithm C's
+    table (its errors are computed there)."""
+    start(log, threads)
+    reference, _, info = reference_error(ref, coarser, quadrature)
     df = pd.concat([pd.read_csv(r) for r in rows], ignore_index=True)
     errors = {}
     for i, npz in enumerate(npzs):
         run, _ = parabolic_pieces(npz)
-        errors[npz] = space_time_distance(run, ref_pieces, disc.A, disc.free)
+        errors[npz] = reference.distance(run)
         logger.info("run %d/%d, %s: error %.6e", i + 1, len(npzs), npz, errors[npz])
     df["error"] = [errors[n] for n in npzs]
-    df = pd.concat([df, pd.read_csv(adaptive)], ignore_index=True)
-    ref_dofs = len(disc.free) * len(ref_pieces)
-    # the reference's own error, extrapolated along the graded series' rate
-    g = df[df.family == "graded"].sort_values("spacetime_dofs")
-    rate = fit_rate(g.spacetime_dofs, g.error)
-    df["reference_spacetime_dofs"] = ref_dofs
-    df["reference_error_estimate"] = (g.error.iloc[-1]
-                                      * (ref_dofs / g.spacetime_dofs.iloc[-1]) ** rate)
-    df["reference_error"] = df["reference_error_estimate"]   # what the rate table's rule uses
+    df = pd.concat([df, pd.read_csv(adaptive)], ignore_index=True).assign(**info)
     if not np.all(np.isfinite(df.error)):
         raise RuntimeError("a parabolic error is not finite")
     write_table(df, csv)
@@ -51,6 +83,6 @@ def main(rows, npzs, ref, adaptive, quadrature, csv, log=None, threads=None):
 
 if __name__ == "__main__":
     main(list(snakemake.input.rows), list(snakemake.input.npz),  # noqa: F821
-         snakemake.input.ref, snakemake.input.adaptive,  # noqa: F821
-         snakemake.params.quadrature, snakemake.output.csv, snakemake.log[0],  # noqa: F821
-         snakemake.threads)  # noqa: F821
+         snakemake.input.ref, list(snakemake.input.coarser),  # noqa: F821
+         snakemake.input.adaptive, snakemake.params.quadrature,  # noqa: F821
+         snakemake.output.csv, snakemake.log[0], snakemake.threads)  # noqa: F821

@@ -134,9 +134,10 @@ GROUPS = [
     }),
     ("Parabolic runs (`parabolic-runs.md`)", True, {
         "first_contact": "Example 4: time of the first step with some λ_H < 0 (NaN: none)",
-        "reference_error_estimate": "the reference run's own error: finest graded error × "
-                                    "(reference's / finest graded `spacetime_dofs`)^(graded "
-                                    "rate)",
+        "reference_error_estimate": "the reference run's own error, measured: with d12, "
+                                    "d23 the distances between its family's runs at the "
+                                    "two coarser h and the reference, d23·r/(1 − r), "
+                                    "r = d23/d12",
     }),
     ("Parabolic reference check (`parabolic-reference-check.md`)", False, {
         "exact error": "L²(0,T; a) error against the manufactured solution, exact in time",

@@ -31,9 +31,11 @@ def start(log: str | None = None, threads: int | None = None) -> None:
 
 
 def _cell(value):
-    """A value as one CSV cell: sequences as JSON text."""
+    """A value as one CSV cell: sequences and mappings as JSON text (keys sorted)."""
     if isinstance(value, (list, tuple)):
         return json.dumps(list(value))
+    if isinstance(value, dict):
+        return json.dumps(value, sort_keys=True)
     return value
 
 
@@ -42,7 +44,7 @@ def parameter_columns(quadrature=None, **parameters) -> dict:
 
     quadrature: the fracfem.QuadratureOptions used (one column per field,
     ``quadrature_<field>``); parameters: further scalars (θ, τ factor, solver,
-    tolerances, the example's data), sequences written as JSON.
+    tolerances, the example's data), sequences and mappings written as JSON.
     """
     cols = {k: _cell(v) for k, v in parameters.items()}
     if quadrature is not None:
