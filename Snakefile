@@ -75,6 +75,7 @@ rule all:
         rules.fig12.output,
         rules.parabolic_summary.output,
         rules.para_reference_check.output,
+        rules.ex5_uniform_cause.output,
         expand(rules.thin_demo.output, kind=["obstacle", "friction"]),
         rules.results_page.output,
     default_target: True

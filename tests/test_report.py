@@ -111,3 +111,16 @@ def test_paper_rate_only_for_the_papers_order_and_data():
     assert paper_rate(3, "uniform", 0.6, "printed") == PAPER_RATES[(3, "uniform")]
     assert paper_rate(3, "uniform", 0.6, "signchange") is None
     assert paper_rate(4, "adaptive", 0.5, "u2") == PAPER_RATES[(4, "adaptive")]
+
+
+def test_geometric_tail_is_exact_for_a_geometric_family_and_refuses_divergence():
+    from fracfem_workflow.report import geometric_tail
+
+    # u_k = u + C q^k v (v a unit vector): ‖u_k − u_{k+1}‖ = C q^k (1 − q)
+    C, q = 0.7, 0.45
+    d12, d23 = C * q * (1 - q), C * q**2 * (1 - q)
+    r, err = geometric_tail(d12, d23)
+    assert r == pytest.approx(q, rel=1e-14)
+    assert err == pytest.approx(C * q**3, rel=1e-13)       # ‖u_3 − u‖
+    with pytest.raises(RuntimeError, match="does not converge"):
+        geometric_tail(0.1, 0.1)

@@ -126,3 +126,25 @@ def test_other_data_recompute_the_large_reference(tmp_path, change):
     jobs = job_counts(text)
     assert jobs["vi_adaptive_large"] == 1
     assert f"{tmp_path}/r/vi/ex2/adaptive-large/steps.csv" in text
+
+
+def test_figure13_reuses_the_committed_parabolic_references(tmp_path):
+    """With the committed data, Figure 13 runs the series, Algorithm C and the reference's
+    two coarser runs; the committed reference runs stand in for the reference."""
+    _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
+                      "--", f"{tmp_path}/o/fig13-ex4-error.png")
+    assert "workflow/data/reference/ex4-u1-parabolic.npz" in text
+    assert "workflow/data/reference/ex4-u2-parabolic.npz" in text
+    assert "reference/h0.025.npz" not in text       # the reference run itself: not run
+    assert "ex4-u1/reference/h0.05.npz" in text and "ex4-u1/reference/h0.1.npz" in text
+
+
+@pytest.mark.parametrize("change", ["parabolic:\n  examples:\n    ex4-u1: {s: 0.5, u0: 1.5}\n",
+                                    "solver:\n  tol: 1.0e-8\n"])
+def test_other_data_recompute_the_parabolic_reference(tmp_path, change):
+    """A committed parabolic reference made for other data or settings is not used."""
+    (tmp_path / "s.yaml").write_text(change)
+    _, text = dry_run("--configfile", str(tmp_path / "s.yaml"), "--config",
+                      f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
+                      "--", f"{tmp_path}/o/fig13-ex4-error.png")
+    assert f"{tmp_path}/r/para/ex4-u1/reference/h0.025.npz" in text

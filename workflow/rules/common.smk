@@ -216,6 +216,64 @@ def para_tau_factor(wildcards):
     return PARA["tau_factor"][wildcards.family]
 
 
+PARA_REF_COARSER = [series_tag("graded", h) for h in PARA["reference"]["coarser_h"]]
+
+
+def committed_para_reference(problem, kind="npz"):
+    """The committed copy of the reference run of a parabolic problem (written by
+    reference_large): its time steps (kind 'npz', U in single precision) or its row ('csv')."""
+    return Path(workflow.basedir) / PARA["reference"]["committed"] / f"{problem}-parabolic.{kind}"
+
+
+def para_reference_parameters(wildcards):
+    """What the reference run of this problem records and must match for its copy to be
+    used: data, mesh, τ factor, operator, solver tolerance and quadrature."""
+    from fracfem import QuadratureOptions
+    from fracfem_workflow.runs import parameter_columns
+    R = PARA["reference"]
+    return {"tag": PARA_REF_TAG, **parameter_columns(
+        quadrature=QuadratureOptions(**QUADRATURE), grading=GRADING, T=PARA["T"],
+        tau_factor=R["tau_factor"], solver="pdas", tol=SOLVER["tol"], operator=R["operator"],
+        data=para_data(wildcards))}
+
+
+def para_reference(wildcards):
+    """The reference run of a parabolic problem: the committed copy when it was computed
+    with the same data and settings (para_reference_parameters) and
+    parabolic.reference.recompute is false, else the run itself (rule para_solve, family
+    reference: tens of minutes on two cores, parabolic-runs.md)."""
+    problem = wildcards.problem
+    npz, row = committed_para_reference(problem), committed_para_reference(problem, "csv")
+    fresh = path(rules.para_solve.output.npz, problem=problem, family="reference",
+                 tag=PARA_REF_TAG)
+    if PARA["reference"]["recompute"] or not (npz.exists() and row.exists()):
+        return fresh
+    import pandas as pd
+    from fracfem_workflow.runs import mismatched_parameters
+    try:
+        differ = mismatched_parameters(pd.read_csv(row).iloc[0].to_dict(),
+                                       para_reference_parameters(wildcards))
+    except (OSError, ValueError, KeyError, IndexError) as err:
+        differ = [f"unreadable ({err})"]
+    if not differ:
+        return str(npz)
+    logger.warning(f"{npz} differs from this configuration in {', '.join(differ)}: the "
+                   f"reference of {problem} is recomputed (rule para_solve)")
+    return fresh
+
+
+def para_reference_row(wildcards):
+    """The row (time, memory, size) of the reference run para_reference uses."""
+    ref = para_reference(wildcards)
+    return ref[:-len("npz")] + "csv"
+
+
+def para_reference_coarser(wildcards):
+    """The two coarser runs of the reference's family (coarsest first)."""
+    return [path(rules.para_solve.output.npz, problem=wildcards.problem, family="reference",
+                 tag=tag) for tag in PARA_REF_COARSER]
+
+
 def vi_series_rows(wildcards):
     """The uniform and graded runs of an elliptic obstacle/friction problem."""
     block = EX2 if wildcards.problem == "ex2" else EX3

@@ -28,6 +28,7 @@ rule results_page:
         rules.fig14.output,
         rules.parabolic_summary.output,
         rules.para_reference_check.output.md,
+        rules.ex5_uniform_cause.output.md,
         rules.benchmark_assembly.output.md,
         rules.bad_inputs.output.md,
     output:

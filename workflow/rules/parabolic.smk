@@ -30,7 +30,7 @@ rule para_solve:
 
 rule para_adaptive:
     input:
-        ref=path(rules.para_solve.output.npz, family="reference", tag=PARA_REF_TAG),
+        ref=para_reference,
     output:
         table=f"{RES}/para/{{problem}}/adaptive/iterations.csv",
         npz=f"{RES}/para/{{problem}}/adaptive/meshes.npz",
@@ -65,7 +65,9 @@ rule para_errors:
         adaptive=rules.para_adaptive.output.table,
         rows=para_series_rows,
         npz=para_series_npz,
-        ref=rules.para_adaptive.input.ref,
+        ref=para_reference,
+        ref_row=para_reference_row,
+        coarser=para_reference_coarser,
     output:
         csv=f"{RES}/para/{{problem}}/errors.csv",
     log:
@@ -137,8 +139,7 @@ rule fig10:
 rule fig14:
     input:
         npz=path(rules.para_adaptive.output.npz, problem="ex5"),
-        reference=path(rules.para_solve.output.npz, problem="ex5", family="reference",
-                       tag=PARA_REF_TAG),
+        reference=lambda w: para_reference(Namespace(problem="ex5")),
     output:
         png=report(
             f"{OUT}/fig14-ex5-solution.png",
@@ -255,7 +256,7 @@ rule para_reference_check:
         uniform_levels=PARA["uniform_levels"],
         graded_h=PARA["graded_h"],
         tau_factor=PARA["tau_factor"],
-        reference_graded_h=PARA["reference"]["graded_h"],
+        family_h=PARA["reference"]["check_h"],
         reference_tau_factor=PARA["reference"]["tau_factor"],
         quadrature=QUADRATURE,
     log:
@@ -267,3 +268,59 @@ rule para_reference_check:
         ENV
     script:
         "../scripts/para_reference_check.py"
+
+
+# Example 5's uniform rate: the series against references made alike, for Example 5 and for
+# one change of it at a time (no friction; an initial value that does not vanish on ∂Ω)
+rule ex5_uniform_cause:
+    output:
+        md=report(
+            f"{OUT}/ex5-uniform-rate.md",
+            caption="../../report/captions/ex5-uniform-rate.rst",
+            category="Example 5 (parabolic friction)",
+            subcategory="Tables",
+        ),
+        csv=f"{RES}/para/ex5-uniform-cause.csv",
+    params:
+        data=lambda w: PARA["examples"]["ex5"],
+        changes={"F = 0 (no friction)": {"F": 0.0}, "u₀ = 1": {"u0": 1.0}},
+        T=PARA["T"],
+        grading=GRADING,
+        uniform_levels=PARA["uniform_levels"],
+        uniform_tau_factor=PARA["tau_factor"]["uniform"],
+        family_h=PARA["reference"]["check_h"],
+        reference_tau_factor=PARA["reference"]["tau_factor"],
+        tol=SOLVER["tol"],
+        quadrature=QUADRATURE,
+    log:
+        f"{RES}/logs/para/ex5_uniform_cause.log",
+    benchmark:
+        f"{RES}/benchmarks/para/ex5_uniform_cause.tsv"
+    threads: 2
+    conda:
+        ENV
+    script:
+        "../scripts/ex5_uniform_cause.py"
+
+
+# `snakemake --cores 2 para_reference_large --forcerun para_solve`: recompute the reference
+# runs of Examples 4, 5 and replace their committed copies (parabolic.reference.committed;
+# the input files, not outputs of this rule: a fresh clone uses the copies as they are)
+rule para_reference_large:
+    input:
+        npz=expand(rules.para_solve.output.npz, problem=PARA_PROBLEMS, family="reference",
+                   tag=PARA_REF_TAG),
+        rows=expand(rules.para_solve.output.row, problem=PARA_PROBLEMS, family="reference",
+                    tag=PARA_REF_TAG),
+    params:
+        committed=[(str(committed_para_reference(p)), str(committed_para_reference(p, "csv")))
+                   for p in PARA_PROBLEMS],
+        multipliers=["ex5"],    # λ_H kept for ex5-free-boundary.md
+    log:
+        f"{RES}/logs/para_reference_large.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/para_reference_large.tsv"
+    conda:
+        ENV
+    script:
+        "../scripts/para_reference_copy.py"

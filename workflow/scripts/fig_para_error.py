@@ -21,7 +21,7 @@ def main(csvs, png, pdf):
                 ax.loglog(g.spacetime_dofs, g.eta, ls=":", marker=".", color="k",
                           label=rf"estimator $\eta$ ({FAMILY_LABELS[fam]}): "
                                 f"{fit_rate(g.spacetime_dofs, g.eta):.3f}")
-        reference_error_lines(ax, df.reference_error_estimate.iloc[0], "estimate")
+        reference_error_lines(ax, df.reference_error.iloc[0], "measured")
         ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$")
         ax.set_xlabel(SPACETIME_DOFS)
         legend_below(ax)

@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 
 import fracfem as ff
-from fracfem.transfer import space_time_distance
+from fracfem.transfer import SpaceTimeReference
 from fracfem_workflow.io import peak_memory_mb, save_arrays, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.runs import parabolic_pieces, parameter_columns, start
@@ -27,7 +27,8 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     logger.info("reference solution %s: %d time steps on %d nodes; assembling its matrix",
                 ref, len(ref_pieces), ref_pieces[0][2].p.shape[1])
     t0 = time.perf_counter()
-    ref_disc = ff.discretise(ref_pieces[0][2], s, 0.0, quadrature=quad)
+    ref_disc = ff.discretise(ref_pieces[0][2], s, 0.0, quadrature=quad, operator="auto")
+    reference = SpaceTimeReference(ref_pieces, ref_disc.A, ref_disc.free)
     t_ref = time.perf_counter() - t0
     rows, arrays, t_start = [], {}, time.perf_counter()
     keep = {int(k) for k in figure_iterations}
@@ -35,7 +36,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
 
     def record(rec):
         t0 = time.perf_counter()
-        err = space_time_distance(rec.pieces, ref_pieces, ref_disc.A, ref_disc.free)
+        err = reference.distance(rec.pieces)
         t_eval[0] += time.perf_counter() - t0
         rec.pieces = None                          # the steps are not needed any more
         rows.append({

@@ -21,20 +21,10 @@ import fracfem as ff
 from fracfem.transfer import SpaceTimeReference
 from fracfem_workflow.io import write_table
 from fracfem_workflow.logs import script_logger
+from fracfem_workflow.report import geometric_tail
 from fracfem_workflow.runs import parabolic_pieces, start
 
 logger = script_logger("para_errors")
-
-
-def geometric_tail(d12: float, d23: float) -> tuple[float, float]:
-    """(r, d₂₃ r/(1 − r)): the error of the finest of three runs whose consecutive
-    distances are d₁₂, d₂₃, if the series converges geometrically with ratio r."""
-    r = d23 / d12
-    if not 0.0 < r < 1.0:
-        raise RuntimeError(f"the reference family does not converge: distances "
-                           f"d12 = {d12:.4g}, d23 = {d23:.4g} (ratio {r:.3g}); refine the "
-                           "reference (parabolic.reference.graded_h)")
-    return r, d23 * r / (1.0 - r)
 
 
 def reference_error(ref, coarser, quadrature):
@@ -58,16 +48,19 @@ def reference_error(ref, coarser, quadrature):
     info = {"reference_spacetime_dofs": len(disc.free) * len(ref_pieces),
             "reference_dofs": len(disc.free), "reference_steps": len(ref_pieces),
             "reference_d12": d12, "reference_d23": d23, "reference_ratio": r,
-            "reference_error_estimate": err, "reference_error": err}
+            "reference_error": err}
     return reference, s, info
 
 
-def main(rows, npzs, ref, coarser, adaptive, quadrature, csv, log=None, threads=None):
-    """rows, npzs: the uniform and graded runs (same order); ref: the reference run;
-    coarser: its family's two coarser runs (coarsest first); adaptive: Algorithm C's
-    table (its errors are computed there)."""
+def main(rows, npzs, ref, ref_row, coarser, adaptive, quadrature, csv, log=None,
+         threads=None):
+    """rows, npzs: the uniform and graded runs (same order); ref, ref_row: the reference
+    run and its row; coarser: its family's two coarser runs (coarsest first); adaptive:
+    Algorithm C's table (its errors are computed there)."""
     start(log, threads)
     reference, _, info = reference_error(ref, coarser, quadrature)
+    row = pd.read_csv(ref_row).iloc[0]
+    info.update(reference_t_wall=row.t_wall, reference_peak_mem_mb=row.peak_mem_mb)
     df = pd.concat([pd.read_csv(r) for r in rows], ignore_index=True)
     errors = {}
     for i, npz in enumerate(npzs):
@@ -83,6 +76,7 @@ def main(rows, npzs, ref, coarser, adaptive, quadrature, csv, log=None, threads=
 
 if __name__ == "__main__":
     main(list(snakemake.input.rows), list(snakemake.input.npz),  # noqa: F821
-         snakemake.input.ref, list(snakemake.input.coarser),  # noqa: F821
+         snakemake.input.ref, snakemake.input.ref_row,  # noqa: F821
+         list(snakemake.input.coarser),  # noqa: F821
          snakemake.input.adaptive, snakemake.params.quadrature,  # noqa: F821
          snakemake.output.csv, snakemake.log[0], snakemake.threads)  # noqa: F821

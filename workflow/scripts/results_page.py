@@ -45,7 +45,8 @@ SECTIONS = [
      ["fig10-ex4-solution.png", "fig11-ex4-indicators-in-time.png",
       "fig12-ex4-spacetime-meshes.png", "fig13-ex4-error.png", "fig14-ex5-solution.png",
       "fig15-ex5-error.png", "extra-parabolic-error-vs-time.png"],
-     ["parabolic-runs.md", "ex5-free-boundary.md", "parabolic-reference-check.md"]),
+     ["parabolic-runs.md", "ex5-free-boundary.md", "ex5-uniform-rate.md",
+      "parabolic-reference-check.md"]),
     ("Assembly benchmark",
      "Example 1, s = 0.5, uniform disks, warm numba cache; `floor_s` is one kernel "
      "evaluation per unordered element pair in the same process.",

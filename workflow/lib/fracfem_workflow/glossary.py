@@ -68,7 +68,9 @@ GROUPS = [
         "n_excluded": "runs left out: error ≤ 3× `reference_error`",
         "reference_error": "the reference's own error: 0 if exact; Examples 2, 3 the "
                            "`large uncertainty` of `elliptic-errors.md`; Examples 4, 5 "
-                           "`reference_error_estimate`",
+                           "d23·r/(1 − r) of `parabolic-runs.md`: the reference run's error "
+                           "if its family converges geometrically with the measured ratio "
+                           "r (checked in `parabolic-reference-check.md`)",
         "smallest_error": "smallest error of the series",
         ("dof_min", "dof_max"): "smallest and largest DOFs of the fit",
     }),
@@ -134,10 +136,22 @@ GROUPS = [
     }),
     ("Parabolic runs (`parabolic-runs.md`)", True, {
         "first_contact": "Example 4: time of the first step with some λ_H < 0 (NaN: none)",
-        "reference_error_estimate": "the reference run's own error, measured: with d12, "
-                                    "d23 the distances between its family's runs at the "
-                                    "two coarser h and the reference, d23·r/(1 − r), "
-                                    "r = d23/d12",
+        ("d12", "d23"): "L²(0,T; a) distances between the reference's family at the two "
+                        "coarser h (`parabolic.reference.coarser_h`), and between the finer "
+                        "of them and the reference",
+        "ratio r": "d23/d12",
+        "reference / finest spacetime_dofs": "how much larger the reference is than the "
+                                             "largest run it judges",
+        "finest adaptive error": "error of the last Algorithm C pass",
+        "finest error / reference_error": "smallest error of any run over the reference's "
+                                          "own: the margin of the 3× rule",
+        "passes": "Algorithm C passes run",
+        "error rate (fitted runs)": "rate of the error over the passes whose error exceeds "
+                                    "3× `reference_error`",
+        "η rate (same runs)": "rate of the estimator η over the same passes",
+        "η rate (all)": "rate of η over every pass",
+        "fitted": "passes in those fits",
+        "efficiency per pass": "η/error of every pass, in order",
     }),
     ("Parabolic reference check (`parabolic-reference-check.md`)", False, {
         "exact error": "L²(0,T; a) error against the manufactured solution, exact in time",
@@ -147,6 +161,16 @@ GROUPS = [
                                                            "against `spacetime_dofs`",
         "finest exact error": "smallest exact error of the family",
         "reference's exact error": "exact error of the reference run",
+        "exact errors": "exact errors of the reference's family, coarsest first",
+        "reference error estimate": "d23·r/(1 − r) from those runs, as for Examples 4, 5",
+        "estimate / exact": "the estimate over the reference's exact error (> 1: on the "
+                            "safe side)",
+    }),
+    ("Example 5's uniform rate (`ex5-uniform-rate.md`)", False, {
+        "case": "Example 5 as configured, or one change of it",
+        "local slope": "slope of log `error` against log `spacetime_dofs` from the previous "
+                       "run of the series",
+        "last local slope": "`local slope` of the finest run",
     }),
     ("Stability (`stability.md`, `stability-vi.md`)", False, {
         "case": "what was run",

@@ -159,6 +159,17 @@ def extrapolation_uncertainty(dofs, energies) -> dict:
             "uncertainty": float(np.sqrt(2.0 * change))}
 
 
+def geometric_tail(d12: float, d23: float) -> tuple[float, float]:
+    """(r, d₂₃ r/(1 − r)): the error of the finest of three runs u₁, u₂, u₃ of one family
+    with consecutive distances d₁₂ = ‖u₁ − u₂‖, d₂₃ = ‖u₂ − u₃‖, if the family converges
+    geometrically with the ratio r = d₂₃/d₁₂ of those distances."""
+    r = d23 / d12
+    if not 0.0 < r < 1.0:
+        raise RuntimeError(f"the family does not converge: distances d12 = {d12:.4g}, "
+                           f"d23 = {d23:.4g} (ratio {r:.3g})")
+    return r, d23 * r / (1.0 - r)
+
+
 def energy_error(energy, reference) -> np.ndarray:
     """√(2 |E(u_h) − E_ref|): the energy-norm error for Example 1 (exact there)."""
     return np.sqrt(2.0 * np.abs(np.asarray(energy, dtype=float) - reference))
