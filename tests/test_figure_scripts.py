@@ -163,3 +163,34 @@ def test_figure6_names_the_paper_s_meshes(tmp_path, monkeypatch, captured):
     assert "71 DOFs" in titles[2]
     assert [fig06.ordinal(n) for n in (11, 12, 13, 21, 22, 23)] == ["11th", "12th", "13th",
                                                                      "21st", "22nd", "23rd"]
+
+
+def test_parabolic_reference_copy_is_single_precision_and_keeps_what_is_used(tmp_path):
+    """The committed copy of a parabolic reference: U in single precision (relative change
+    below 1e−7), the mesh and times as they are, λ_H only for the problems that use it, and
+    the run's row; the copy reads back as the same pieces."""
+    from fracfem_workflow.runs import parabolic_pieces
+
+    copy = script("para_reference_copy")
+    mesh = ff.disk_uniform(2)
+    rng = np.random.default_rng(0)
+    U = rng.standard_normal((4, mesh.p.shape[1]))
+    runs = {}
+    for problem in ("ex4-u1", "ex5"):
+        npz, row = tmp_path / f"{problem}.npz", tmp_path / f"{problem}.csv"
+        np.savez(npz, p=mesh.p, t=mesh.t, pc=mesh.p, tc=mesh.t, times=np.linspace(0, 1, 4),
+                 U=U, LAM=rng.standard_normal((3, mesh.t.shape[1])), s=0.5,
+                 free=mesh.interior_nodes(), step_k=np.arange(3))
+        pd.DataFrame([{"tag": "h0.025", "t_wall": 1.0}]).to_csv(row, index=False)
+        runs[problem] = (str(npz), str(row), (str(tmp_path / f"c-{problem}-parabolic.npz"),
+                                              str(tmp_path / f"c-{problem}-parabolic.csv")))
+    npzs, rows, committed = (list(x) for x in zip(*runs.values()))
+    copy.main(list(runs), npzs, rows, committed, multipliers=["ex5"])
+    for problem, (_, row, (npz_to, row_to)) in runs.items():
+        d = np.load(npz_to)
+        assert d["U"].dtype == np.float32
+        assert np.max(np.abs(d["U"] - U) / np.abs(U).max()) < 1e-7
+        assert ("LAM" in d.files) == (problem == "ex5") and "step_k" not in d.files
+        pieces, _ = parabolic_pieces(npz_to)
+        assert len(pieces) == 3 and pieces[-1][1] == 1.0
+        assert Path(row_to).read_text() == Path(row).read_text()

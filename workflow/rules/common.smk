@@ -84,7 +84,15 @@ GRADING = EX1["grading"]      # the grading exponent of every graded mesh
 S_EX1 = sorted({float(EX1["s"])} | {float(s) for s in config["s_values"]})
 VI_PROBLEMS = ["ex2"] + [f"ex3-{v}" for v in EX3["variants"]]
 PARA_PROBLEMS = list(PARA["examples"])
-PARA_REF_TAG = series_tag("graded", PARA["reference"]["graded_h"])
+def para_reference_h(problem):
+    """(graded_h, coarser_h) of the reference of a parabolic problem:
+    parabolic.reference, or its entry in parabolic.reference.problems."""
+    R = {**PARA["reference"], **PARA["reference"].get("problems", {}).get(problem, {})}
+    return R["graded_h"], R["coarser_h"]
+
+
+def para_reference_tag(problem):
+    return series_tag("graded", para_reference_h(problem)[0])
 
 
 def fmt(x):
@@ -216,9 +224,6 @@ def para_tau_factor(wildcards):
     return PARA["tau_factor"][wildcards.family]
 
 
-PARA_REF_COARSER = [series_tag("graded", h) for h in PARA["reference"]["coarser_h"]]
-
-
 def committed_para_reference(problem, kind="npz"):
     """The committed copy of the reference run of a parabolic problem (written by
     reference_large): its time steps (kind 'npz', U in single precision) or its row ('csv')."""
@@ -231,7 +236,7 @@ def para_reference_parameters(wildcards):
     from fracfem import QuadratureOptions
     from fracfem_workflow.runs import parameter_columns
     R = PARA["reference"]
-    return {"tag": PARA_REF_TAG, **parameter_columns(
+    return {"tag": para_reference_tag(wildcards.problem), **parameter_columns(
         quadrature=QuadratureOptions(**QUADRATURE), grading=GRADING, T=PARA["T"],
         tau_factor=R["tau_factor"], solver="pdas", tol=SOLVER["tol"], operator=R["operator"],
         data=para_data(wildcards))}
@@ -245,7 +250,7 @@ def para_reference(wildcards):
     problem = wildcards.problem
     npz, row = committed_para_reference(problem), committed_para_reference(problem, "csv")
     fresh = path(rules.para_solve.output.npz, problem=problem, family="reference",
-                 tag=PARA_REF_TAG)
+                 tag=para_reference_tag(problem))
     if PARA["reference"]["recompute"] or not (npz.exists() and row.exists()):
         return fresh
     import pandas as pd
@@ -271,7 +276,8 @@ def para_reference_row(wildcards):
 def para_reference_coarser(wildcards):
     """The two coarser runs of the reference's family (coarsest first)."""
     return [path(rules.para_solve.output.npz, problem=wildcards.problem, family="reference",
-                 tag=tag) for tag in PARA_REF_COARSER]
+                 tag=series_tag("graded", h))
+            for h in para_reference_h(wildcards.problem)[1]]
 
 
 def vi_series_rows(wildcards):

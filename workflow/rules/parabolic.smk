@@ -50,6 +50,7 @@ rule para_adaptive:
         max_spacetime_dofs=PARA["adaptive"]["max_spacetime_dofs"],
         max_iterations=PARA["adaptive"]["max_iterations"],
         figure_iterations=PARA["adaptive"]["figure_iterations"],
+        operator=PARA["adaptive"]["operator"],
         output_times=PARA["output_times"],
         tol=SOLVER["tol"],
         quadrature=QUADRATURE,
@@ -308,11 +309,12 @@ rule ex5_uniform_cause:
 # the input files, not outputs of this rule: a fresh clone uses the copies as they are)
 rule para_reference_large:
     input:
-        npz=expand(rules.para_solve.output.npz, problem=PARA_PROBLEMS, family="reference",
-                   tag=PARA_REF_TAG),
-        rows=expand(rules.para_solve.output.row, problem=PARA_PROBLEMS, family="reference",
-                    tag=PARA_REF_TAG),
+        npz=[path(rules.para_solve.output.npz, problem=p, family="reference",
+                  tag=para_reference_tag(p)) for p in PARA_PROBLEMS],
+        rows=[path(rules.para_solve.output.row, problem=p, family="reference",
+                   tag=para_reference_tag(p)) for p in PARA_PROBLEMS],
     params:
+        problems=PARA_PROBLEMS,
         committed=[(str(committed_para_reference(p)), str(committed_para_reference(p, "csv")))
                    for p in PARA_PROBLEMS],
         multipliers=["ex5"],    # λ_H kept for ex5-free-boundary.md

@@ -51,7 +51,7 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
         reference = SpaceTimeReference(ref, A, free)
         r, ref_err = geometric_tail(SpaceTimeReference(p2, A2, free2).distance(p1),
                                     reference.distance(p2))
-        refs.append({"case": name, "reference": family[-1], "ratio r": r,
+        refs.append({"case": name, "reference run": family[-1], "ratio r": r,
                      "reference_error": ref_err})
         logger.info("%s: reference error %.4g (r = %.3f)", name, ref_err, r)
         for tag in tags:
@@ -59,9 +59,8 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
             rows.append({"case": name, "tag": tag, "spacetime_dofs": len(fr) * len(pieces),
                          "error": reference.distance(pieces), "reference_error": ref_err})
     df = pd.DataFrame(rows)
-    df["local slope"] = df.groupby("case", sort=False).apply(
-        lambda g: np.log(g.error).diff() / np.log(g.spacetime_dofs).diff(),
-        include_groups=False).reset_index(level=0, drop=True)
+    df["local slope"] = (np.log(df.error).groupby(df.case).diff()
+                         / np.log(df.spacetime_dofs).groupby(df.case).diff())
     summary = []
     for name, g in df.groupby("case", sort=False):
         keep = fit_mask(g.error, g.reference_error.iloc[0])
@@ -72,7 +71,8 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
     s = float(data["s"])
     write_table(with_provenance(df.assign(**parameter_columns(
         quadrature=quad, grading=grading, T=T, tau_factor=uniform_tau_factor, tol=tol,
-        data=data))), csv)
+        data=data, changes=changes, family_h=list(family_h),
+        reference_tau_factor=reference_tau_factor))), csv)
     with atomic_path(md) as tmp:
         tmp.write_text(
             f"Example 5's uniform series (s = {s:g}) against a reference made the same way "

@@ -15,9 +15,10 @@ logger = script_logger("para_adaptive")
 
 def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
          max_iterations, figure_iterations, output_times, tol, quadrature, ref, table, npz,
-         log=None, threads=None):
+         log=None, threads=None, operator="dense"):
     """problem: the run's name; example, data: fracfem.example(example, **data); ref: the
-    reference run the errors are measured against."""
+    reference run the errors are measured against; operator: each slab's stiffness
+    ('dense', 'compressed', 'auto')."""
     start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
@@ -68,7 +69,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         return rec.dofs >= max_spacetime_dofs
 
     recs = ff.algorithm_c(
-        lambda coarse: ex.problem(coarse, quad), ff.disk_uniform(start_level),
+        lambda coarse: ex.problem(coarse, quad, operator=operator), ff.disk_uniform(start_level),
         ex.initial_value, T=T, theta=theta, iterations=max_iterations, c_tau=c_tau,
         marking="maximum", solver="pdas", output_times=output_times, callback=record,
         keep_steps=True, solver_options={"tol": tol})
@@ -92,7 +93,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     df["t_reference_assembly"] = t_ref
     df = df.assign(**parameter_columns(
         quadrature=quad, T=T, theta=theta, marking="maximum", c_tau=c_tau,
-        start_level=start_level, solver="pdas", tol=tol))
+        start_level=start_level, solver="pdas", tol=tol, operator=operator))
     write_table(with_provenance(df), table)
 
 
@@ -104,4 +105,4 @@ if __name__ == "__main__":
          snakemake.params.figure_iterations, snakemake.params.output_times,  # noqa: F821
          snakemake.params.tol, snakemake.params.quadrature, snakemake.input.ref,  # noqa: F821
          snakemake.output.table, snakemake.output.npz, snakemake.log[0],  # noqa: F821
-         snakemake.threads)  # noqa: F821
+         snakemake.threads, snakemake.params.operator)  # noqa: F821

@@ -60,7 +60,8 @@ def main(rows, npzs, ref, ref_row, coarser, adaptive, quadrature, csv, log=None,
     start(log, threads)
     reference, _, info = reference_error(ref, coarser, quadrature)
     row = pd.read_csv(ref_row).iloc[0]
-    info.update(reference_t_wall=row.t_wall, reference_peak_mem_mb=row.peak_mem_mb)
+    info.update(reference_t_wall=row.t_wall, reference_peak_mem_mb=row.peak_mem_mb,
+                reference_operator=row.operator_used)
     df = pd.concat([pd.read_csv(r) for r in rows], ignore_index=True)
     errors = {}
     for i, npz in enumerate(npzs):

@@ -15,16 +15,15 @@ logger = script_logger("para_reference_copy")
 KEEP = ("p", "t", "pc", "tc", "times", "s", "free")
 
 
-def main(npzs, rows, committed, multipliers, log=None):
-    """committed: [(npz path, row path)] in the order of npzs; multipliers: the problems
-    whose λ_H is kept."""
+def main(problems, npzs, rows, committed, multipliers, log=None):
+    """problems, npzs, rows, committed [(npz path, row path)]: in one order; multipliers:
+    the problems whose λ_H is kept."""
     if log is not None:
         log_to(log)
-    for npz, row, (npz_to, row_to) in zip(npzs, rows, committed):
+    for problem, npz, row, (npz_to, row_to) in zip(problems, npzs, rows, committed):
         d = np.load(npz)
         keep = {k: d[k] for k in KEEP}
         keep["U"] = d["U"].astype(np.float32)
-        problem = npz_to.rsplit("/", 1)[-1][:-len("-parabolic.npz")]
         if problem in multipliers:
             keep["LAM"] = d["LAM"].astype(np.float32)
         with atomic_path(npz_to) as tmp:
@@ -36,6 +35,7 @@ def main(npzs, rows, committed, multipliers, log=None):
 
 
 if __name__ == "__main__":
-    main(list(snakemake.input.npz), list(snakemake.input.rows),  # noqa: F821
+    main(snakemake.params.problems, list(snakemake.input.npz),  # noqa: F821
+         list(snakemake.input.rows),  # noqa: F821
          snakemake.params.committed, snakemake.params.multipliers,  # noqa: F821
          snakemake.log[0])  # noqa: F821

@@ -68,9 +68,7 @@ GROUPS = [
         "n_excluded": "runs left out: error ≤ 3× `reference_error`",
         "reference_error": "the reference's own error: 0 if exact; Examples 2, 3 the "
                            "`large uncertainty` of `elliptic-errors.md`; Examples 4, 5 "
-                           "d23·r/(1 − r) of `parabolic-runs.md`: the reference run's error "
-                           "if its family converges geometrically with the measured ratio "
-                           "r (checked in `parabolic-reference-check.md`)",
+                           "the reference run's measured error (`parabolic-runs.md`)",
         "smallest_error": "smallest error of the series",
         ("dof_min", "dof_max"): "smallest and largest DOFs of the fit",
     }),
@@ -134,12 +132,14 @@ GROUPS = [
                                                          "the adaptive series, their ratio",
         "efficiency per step": "`efficiency` of every adaptive step, in order",
     }),
-    ("Parabolic runs (`parabolic-runs.md`)", True, {
+    ("Parabolic runs (`parabolic-runs.md`)", False, {
         "first_contact": "Example 4: time of the first step with some λ_H < 0 (NaN: none)",
         ("d12", "d23"): "L²(0,T; a) distances between the reference's family at the two "
                         "coarser h (`parabolic.reference.coarser_h`), and between the finer "
                         "of them and the reference",
         "ratio r": "d23/d12",
+        "operator used": "the stiffness representation of the reference run: `dense` or "
+                         "`compressed`",
         "reference / finest spacetime_dofs": "how much larger the reference is than the "
                                              "largest run it judges",
         "finest adaptive error": "error of the last Algorithm C pass",
@@ -168,6 +168,7 @@ GROUPS = [
     }),
     ("Example 5's uniform rate (`ex5-uniform-rate.md`)", False, {
         "case": "Example 5 as configured, or one change of it",
+        "reference run": "the graded run the case's series is measured against",
         "local slope": "slope of log `error` against log `spacetime_dofs` from the previous "
                        "run of the series",
         "last local slope": "`local slope` of the finest run",
