@@ -84,6 +84,8 @@ GRADING = EX1["grading"]      # the grading exponent of every graded mesh
 S_EX1 = sorted({float(EX1["s"])} | {float(s) for s in config["s_values"]})
 VI_PROBLEMS = ["ex2"] + [f"ex3-{v}" for v in EX3["variants"]]
 PARA_PROBLEMS = list(PARA["examples"])
+
+
 def para_reference_h(problem):
     """(graded_h, coarser_h) of the reference of a parabolic problem:
     parabolic.reference, or its entry in parabolic.reference.problems."""
@@ -92,6 +94,7 @@ def para_reference_h(problem):
 
 
 def para_reference_tag(problem):
+    """The series tag (h<h>) of the reference run of a parabolic problem."""
     return series_tag("graded", para_reference_h(problem)[0])
 
 
@@ -226,7 +229,7 @@ def para_tau_factor(wildcards):
 
 def committed_para_reference(problem, kind="npz"):
     """The committed copy of the reference run of a parabolic problem (written by
-    reference_large): its time steps (kind 'npz', U in single precision) or its row ('csv')."""
+    para_reference_large): its time steps (kind 'npz', U in single precision) or its row ('csv')."""
     return Path(workflow.basedir) / PARA["reference"]["committed"] / f"{problem}-parabolic.{kind}"
 
 
