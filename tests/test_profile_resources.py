@@ -145,3 +145,25 @@ def test_every_rule_of_the_workflow_has_a_benchmark_pattern_and_the_profile_cove
     for name in names:
         assert set(profile["set-resources"][name]) == {"mem_mb", "runtime"}, name
     assert set(profile["default-resources"]) >= {"slurm_account", "slurm_partition"}
+
+
+def test_a_rule_left_out_of_a_later_run_keeps_its_earlier_measurement(tmp_path):
+    """The block of a run where 'adaptive' was measured, then a run without it: 'adaptive'
+    keeps its resources, marked as from an earlier run; a rule never measured stays at
+    the defaults."""
+    bench(tmp_path / "b1" / "ex1" / "adaptive_s0.5.tsv", 1200.0, 9000.0)
+    bench(tmp_path / "b1" / "ex1" / "uniform_s0.5_L3.tsv", 10.0, 500.0)
+    recs, _ = pr.compute(RULES, tmp_path / "b1", **MARGINS)
+    first = pr.render_block(recs, RULES, source="run 1", margins="m")
+    bench(tmp_path / "b2" / "ex1" / "uniform_s0.5_L3.tsv", 12.0, 520.0)
+    recs2, _ = pr.compute(RULES, tmp_path / "b2", **MARGINS)
+    earlier = pr.previous_measurements(first)
+    assert set(earlier) == {"adaptive", "solve"}
+    assert recs2["adaptive"].measured is None
+    kept = pr.recommend(RULES[1], earlier["adaptive"], **MARGINS)
+    assert (kept.mem_mb, kept.runtime) == (recs["adaptive"].mem_mb, recs["adaptive"].runtime)
+    recs2["adaptive"] = kept
+    second = pr.render_block(recs2, RULES, source="run 2", margins="m")
+    assert "# rules measured in an earlier run, kept: adaptive" in second
+    assert "never_run" in second.split("kept:")[0]          # still without a benchmark
+    assert pr.previous_measurements(second)["adaptive"].max_rss == 9000.0

@@ -63,6 +63,7 @@ class Measured:
     max_rss: float = 0.0         # MB
     max_load: float = 0.0        # cpu_time / s, the cores a job kept busy on average
     min_s: float = math.inf
+    kept: bool = False           # read back from the profile: no benchmark file this time
 
 
 @dataclass
@@ -191,11 +192,31 @@ def recommend(rule, measured, *, fit_threads=False, mem_factor=MEM_FACTOR,
     return Recommendation(threads, mem, int(runtime), measured)
 
 
+_NOTE = re.compile(r"^  # (?P<rule>\w+): (?P<jobs>\d+) job\(s\): max (?P<s>[0-9.]+) s, "
+                   r"max_rss (?P<rss>[0-9.]+) MB, cpu_time/s <= (?P<load>[0-9.]+)", re.M)
+
+
+def previous_measurements(text):
+    """{rule: Measured} of the rules whose entry in a profile's block was measured (the
+    comment line above it), so that a rule left out of a later run keeps its measurement
+    (e.g. the large reference runs, not part of the default pipeline)."""
+    start, end = text.find(BEGIN), text.find(END)
+    if start < 0 or end < start:
+        return {}
+    out = {}
+    for m in _NOTE.finditer(text[start:end]):
+        out[m["rule"]] = Measured(files=["(an earlier run)"] * int(m["jobs"]),
+                                  max_s=float(m["s"]), max_rss=float(m["rss"]),
+                                  max_load=float(m["load"]), min_s=0.0, kept=True)
+    return out
+
+
 def render_block(recs, rules, *, source, margins):
     """The generated YAML block (markers included) for {rule: Recommendation}."""
     names = [r.name for r in rules if r.name in recs]
     local = {r.name for r in rules if r.local}
     missing = [n for n in names if recs[n].measured is None]
+    kept = [n for n in names if recs[n].measured is not None and recs[n].measured.kept]
     lines = [
         BEGIN,
         "# (do not edit by hand: rerun the script after a pipeline run; see docs/cluster.md)",
@@ -203,6 +224,7 @@ def render_block(recs, rules, *, source, margins):
         f"# margins: {margins}",
         "# rules without a benchmark file (conservative defaults): "
         + (", ".join(missing) if missing else "none"),
+        "# rules measured in an earlier run, kept: " + (", ".join(kept) if kept else "none"),
         "set-threads:",
     ]
     lines += [f"  {n}: {recs[n].threads}" for n in names]
@@ -215,6 +237,8 @@ def render_block(recs, rules, *, source, margins):
             m = r.measured
             note = (f"{len(m.files)} job(s): max {m.max_s:.1f} s, max_rss {m.max_rss:.0f} MB, "
                     f"cpu_time/s <= {m.max_load:.2f}")
+            if m.kept:
+                note += " (an earlier run)"
         if n in local:
             note += "; a localrule (runs beside Snakemake, not submitted)"
         lines += [f"  # {n}: {note}", f"  {n}:", f"    mem_mb: {r.mem_mb}",
@@ -339,6 +363,11 @@ def main(argv=None):
                    runtime_overhead=a.runtime_overhead, runtime_floor=a.runtime_floor,
                    default_mem_mb=a.default_mem_mb, default_runtime=a.default_runtime)
     recs, unmatched = compute(rules, bench, fit_threads=a.fit_threads, **margins)
+    profile = Path(a.profile)
+    earlier = previous_measurements(profile.read_text()) if profile.exists() else {}
+    for r in rules:           # not run this time: keep an earlier measurement
+        if recs[r.name].measured is None and r.name in earlier:
+            recs[r.name] = recommend(r, earlier[r.name], fit_threads=False, **margins)
     block = render_block(recs, rules, source=a.source_note or str(bench),
                          margins=margins_text(a))
 
@@ -357,7 +386,6 @@ def main(argv=None):
         print("benchmark files matching no rule (ignored): "
               + ", ".join(str(f) for f in unmatched))
 
-    profile = Path(a.profile)
     old = profile.read_text()
     new = replace_block(old, block)
     if a.check:
