@@ -124,3 +124,24 @@ def test_geometric_tail_is_exact_for_a_geometric_family_and_refuses_divergence()
     assert err == pytest.approx(C * q**3, rel=1e-13)       # ‖u_3 − u‖
     with pytest.raises(RuntimeError, match="does not converge"):
         geometric_tail(0.1, 0.1)
+
+
+def test_reference_family_error_measures_a_geometric_family_exactly():
+    """u_k = u + C q^k v on one mesh and time interval: the measured error of u_3 is
+    C q^3 ‖v‖_a, the distances C q^k (1 − q) ‖v‖_a."""
+    from fracfem import discretise
+    from fracfem.transfer import SpaceTimeReference
+    from fracfem_workflow.report import reference_family_error
+
+    mesh = meshes.disk_uniform(2)
+    disc = discretise(mesh, 0.5)
+    rng = np.random.default_rng(5)
+    u, v = (disc.extend(rng.standard_normal(len(disc.free))) for _ in range(2))
+    C, q = 0.8, 0.5
+    run = [[(0.0, 1.0, mesh, u + C * q**k * v)] for k in (1, 2, 3)]
+    norm_v = np.sqrt(v[disc.free] @ disc.A @ v[disc.free])
+    fam = reference_family_error(run[0], (run[1], disc.A, disc.free),
+                                 SpaceTimeReference(run[2], disc.A, disc.free))
+    assert fam["d12"] == pytest.approx(C * q * (1 - q) * norm_v, rel=1e-10)
+    assert fam["ratio"] == pytest.approx(q, rel=1e-10)
+    assert fam["error"] == pytest.approx(C * q**3 * norm_v, rel=1e-10)

@@ -16,7 +16,7 @@ from fracfem.meshes import mesh_size
 from fracfem.transfer import SpaceTimeReference
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.report import fit_mask, geometric_tail, masked_rate
+from fracfem_workflow.report import fit_mask, masked_rate, reference_family_error
 from fracfem_workflow.runs import parameter_columns, start
 
 logger = script_logger("ex5_uniform_cause")
@@ -49,11 +49,11 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
         (p1, _, _), (p2, A2, free2), (ref, A, free) = [
             run(ex, u0, tag, grading, T, reference_tau_factor, tol, quad) for tag in family]
         reference = SpaceTimeReference(ref, A, free)
-        r, ref_err = geometric_tail(SpaceTimeReference(p2, A2, free2).distance(p1),
-                                    reference.distance(p2))
-        refs.append({"case": name, "reference run": family[-1], "ratio r": r,
+        fam = reference_family_error(p1, (p2, A2, free2), reference)
+        ref_err = fam["error"]
+        refs.append({"case": name, "reference run": family[-1], "ratio r": fam["ratio"],
                      "reference_error": ref_err})
-        logger.info("%s: reference error %.4g (r = %.3f)", name, ref_err, r)
+        logger.info("%s: reference error %.4g (r = %.3f)", name, ref_err, fam["ratio"])
         for tag in tags:
             pieces, _, fr = run(ex, u0, tag, grading, T, uniform_tau_factor, tol, quad)
             rows.append({"case": name, "tag": tag, "spacetime_dofs": len(fr) * len(pieces),

@@ -69,7 +69,8 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         return rec.dofs >= max_spacetime_dofs
 
     recs = ff.algorithm_c(
-        lambda coarse: ex.problem(coarse, quad, operator=operator), ff.disk_uniform(start_level),
+        lambda coarse: ex.problem(coarse, quad, operator=operator),
+        ff.disk_uniform(start_level),
         ex.initial_value, T=T, theta=theta, iterations=max_iterations, c_tau=c_tau,
         marking="maximum", solver="pdas", output_times=output_times, callback=record,
         keep_steps=True, solver_options={"tol": tol})

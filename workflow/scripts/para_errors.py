@@ -21,15 +21,15 @@ import fracfem as ff
 from fracfem.transfer import SpaceTimeReference
 from fracfem_workflow.io import write_table
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.report import geometric_tail
+from fracfem_workflow.report import reference_family_error
 from fracfem_workflow.runs import parabolic_pieces, start
 
 logger = script_logger("para_errors")
 
 
 def reference_error(ref, coarser, quadrature):
-    """(SpaceTimeReference of the reference run, s, its info: the measured error
-    and the distances behind it); coarser: the family's two coarser runs."""
+    """(SpaceTimeReference of the reference run, its info: the measured error and the
+    distances behind it); coarser: the family's two coarser runs."""
     ref_pieces, d = parabolic_pieces(ref)
     s = float(d["s"])
     quad = ff.QuadratureOptions(**quadrature)
@@ -40,16 +40,13 @@ def reference_error(ref, coarser, quadrature):
     u1, _ = parabolic_pieces(coarser[0])
     u2, _ = parabolic_pieces(coarser[1])
     disc2 = ff.discretise(u2[0][2], s, 0.0, quadrature=quad, operator="auto")
-    d12 = SpaceTimeReference(u2, disc2.A, disc2.free).distance(u1)
-    d23 = reference.distance(u2)
-    r, err = geometric_tail(d12, d23)
+    fam = reference_family_error(u1, (u2, disc2.A, disc2.free), reference)
     logger.info("reference family: d12 = %.4e, d23 = %.4e, ratio %.3f: reference error "
-                "%.4e", d12, d23, r, err)
+                "%.4e", fam["d12"], fam["d23"], fam["ratio"], fam["error"])
     info = {"reference_spacetime_dofs": len(disc.free) * len(ref_pieces),
             "reference_dofs": len(disc.free), "reference_steps": len(ref_pieces),
-            "reference_d12": d12, "reference_d23": d23, "reference_ratio": r,
-            "reference_error": err}
-    return reference, s, info
+            **{f"reference_{k}": v for k, v in fam.items()}}
+    return reference, info
 
 
 def main(rows, npzs, ref, ref_row, coarser, adaptive, quadrature, csv, log=None,
@@ -58,7 +55,7 @@ def main(rows, npzs, ref, ref_row, coarser, adaptive, quadrature, csv, log=None,
     run and its row; coarser: its family's two coarser runs (coarsest first); adaptive:
     Algorithm C's table (its errors are computed there)."""
     start(log, threads)
-    reference, _, info = reference_error(ref, coarser, quadrature)
+    reference, info = reference_error(ref, coarser, quadrature)
     row = pd.read_csv(ref_row).iloc[0]
     info.update(reference_t_wall=row.t_wall, reference_peak_mem_mb=row.peak_mem_mb,
                 reference_operator=row.operator_used)

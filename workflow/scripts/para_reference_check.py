@@ -13,7 +13,7 @@ from fracfem.meshes import mesh_size
 from fracfem.transfer import SpaceTimeReference
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.report import fit_rate, geometric_tail
+from fracfem_workflow.report import fit_rate, reference_family_error
 from fracfem_workflow.runs import parameter_columns, start
 
 logger = script_logger("para_reference_check")
@@ -49,9 +49,8 @@ def check(s, T, grading, series, tau_factor, family_tags, reference_tau_factor, 
                     tag, len(disc.free), len(steps) - 1, family[-1][2])
     (_, p1, e1), (disc2, p2, e2), (ref_disc, ref, ref_exact) = family
     reference = SpaceTimeReference(ref, ref_disc.A, ref_disc.free)
-    d12 = SpaceTimeReference(p2, disc2.A, disc2.free).distance(p1)
-    d23 = reference.distance(p2)
-    ratio, estimate = geometric_tail(d12, d23)
+    fam = reference_family_error(p1, (p2, disc2.A, disc2.free), reference)
+    estimate = fam["error"]
     rows = []
     for fam, tag in series:
         mesh = fine_mesh(tag, grading)
@@ -72,7 +71,7 @@ def check(s, T, grading, series, tau_factor, family_tags, reference_tau_factor, 
                         "reference's exact error": ref_exact})
     estimate_row = {"s": s, "family": " → ".join(family_tags),
                     "exact errors": ", ".join(f"{e:.4g}" for e in (e1, e2, ref_exact)),
-                    "d12": d12, "d23": d23, "ratio r": ratio,
+                    "d12": fam["d12"], "d23": fam["d23"], "ratio r": fam["ratio"],
                     "reference error estimate": estimate, "reference's exact error": ref_exact,
                     "estimate / exact": estimate / ref_exact}
     note = (f"s = {s:g}: reference {len(ref_disc.free)} DOFs × {len(ref)} steps, exact error "

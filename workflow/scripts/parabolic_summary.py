@@ -9,8 +9,8 @@ from fracfem_workflow.plotstyle import ERROR_LABELS, plt, problem_title, save, t
 from fracfem_workflow.report import fit_mask, fit_rate, masked_rate
 
 # columns of para_errors' tables shown in the reference table, under these names
-REFERENCE_COLUMNS = {"reference_operator": "operator used", "reference_dofs": "dofs", "reference_steps": "steps",
-                     "reference_spacetime_dofs": "spacetime_dofs", "reference_t_wall": "t_wall",
+REFERENCE_COLUMNS = {"reference_operator": "operator used", "reference_dofs": "dofs",
+                     "reference_steps": "steps", "reference_spacetime_dofs": "spacetime_dofs", "reference_t_wall": "t_wall",
                      "reference_peak_mem_mb": "peak_mem_mb", "reference_d12": "d12",
                      "reference_d23": "d23", "reference_ratio": "ratio r",
                      "reference_error": "reference_error"}

@@ -170,6 +170,23 @@ def geometric_tail(d12: float, d23: float) -> tuple[float, float]:
     return r, d23 * r / (1.0 - r)
 
 
+def reference_family_error(coarsest, middle, reference) -> dict:
+    """The measured error of a parabolic reference run from the two coarser runs of its
+    family: d12 = ‖u₁ − u₂‖ in the a-norm of u₂'s mesh, d23 = ‖u₂ − u₃‖ in that of the
+    reference, then :func:`geometric_tail`.
+
+    coarsest: the pieces [(t0, t1, mesh, u)] of u₁; middle: (pieces, free-node operator,
+    free nodes) of u₂; reference: the :class:`fracfem.transfer.SpaceTimeReference` of u₃.
+    Returns {'d12', 'd23', 'ratio', 'error'}."""
+    from fracfem.transfer import SpaceTimeReference
+
+    pieces, A, free = middle
+    d12 = SpaceTimeReference(pieces, A, free).distance(coarsest)
+    d23 = reference.distance(pieces)
+    r, err = geometric_tail(d12, d23)
+    return {"d12": d12, "d23": d23, "ratio": r, "error": err}
+
+
 def energy_error(energy, reference) -> np.ndarray:
     """√(2 |E(u_h) − E_ref|): the energy-norm error for Example 1 (exact there)."""
     return np.sqrt(2.0 * np.abs(np.asarray(energy, dtype=float) - reference))
