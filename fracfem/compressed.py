@@ -322,21 +322,33 @@ def near_lists(near: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def far_values(tt: dict, ts: dict, far: np.ndarray, x: np.ndarray, points: np.ndarray,
                order: int, expo: float, src: np.ndarray, comps=(-1,),
-               logl0: float = 0.0) -> np.ndarray:
+               logl0: float = 0.0, batch_bytes: int | None = None) -> np.ndarray:
     """Σ over the admissible blocks (targets x of tt, sources ``points`` of ts)
     of Σ_j src[c, j] k_c(y_j − x_i), one kernel k_c per entry c of ``comps``
     (see :func:`fracfem._h2_kernels.coupling_matrices`) and src (len(comps),
-    n_sources, 1, 6) source functionals; returns (n_targets,) values."""
+    n_sources, 1, 6) source functionals; returns (n_targets,) values.
+
+    Used once, the coupling matrices are never all held: they are made for
+    one kernel and one batch of block geometries at a time, at most
+    ``batch_bytes`` (default ``FAR_BATCH_BYTES``) of them, and dropped after
+    their products.  The sums are those of the stored path up to the order
+    of summation (tested)."""
     out = np.zeros(len(x))
     if not len(far):
         return out
+    batch_bytes = FAR_BATCH_BYTES if batch_bytes is None else int(batch_bytes)
+    if batch_bytes < 1:
+        raise ValueError(f"batch_bytes={batch_bytes!r} must be a positive number of bytes")
     z = chebyshev_points(order)
     f = _far_blocks(tt, ts, far, _tree_data(tt, x, z), _tree_data(ts, points, z), z, expo,
-                    comps=comps, logl0=logl0)
-    K = f["K"] if len(comps) > 1 else [f["K"]]
-    for c in range(len(comps)):
-        out += _far_pass(f, src[c], K[c], nder=1)[:, 0, 0]
+                    comps=comps, logl0=logl0, lazy=True)
+    per = max(1, batch_bytes // (8 * len(z) ** 4))
+    for c, comp in enumerate(comps):
+        out += _far_pass(f, src[c], nder=1, lazy=(comp, per))[:, 0, 0]
     return out
+
+
+FAR_BATCH_BYTES = 128 * 2**20
 
 
 # ---------------------------------------------------------------- operator
@@ -432,29 +444,62 @@ def _unique_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _far_blocks(tt: dict, ts: dict, far: np.ndarray, tdata: dict, sdata: dict,
-                z: np.ndarray, expo: float, comps=(-1,), logl0: float = 0.0) -> dict:
+                z: np.ndarray, expo: float, comps=(-1,), logl0: float = 0.0,
+                lazy: bool = False) -> dict:
     """Admissible blocks grouped by target cluster, with one coupling matrix per
     block geometry for each kernel: |r|^(2·expo) (comp −1), r_comp |r|^(2·expo)
     (comp 0, 1) or (|r|^(2·expo) − ℓ₀^(2·expo))/(−2·expo) (comp 2, ℓ₀ = e^logl0);
-    with several comps K is a list, one array per comp."""
+    with several comps K is a list, one array per comp.  ``lazy``: no K; the
+    first block of each geometry is kept (``first_rows``, ``first_cols``) so
+    that :func:`_far_pass` makes the matrices batch by batch."""
     fr = far
     first, inverse = _unique_rows(block_keys(tt["dyadic"], ts["dyadic"], fr))
-    K = [hk.coupling_matrices(tdata["boxes"], sdata["boxes"], fr[first, 0].copy(),
-                              fr[first, 1].copy(), z, expo, comp, logl0) for comp in comps]
     # blocks grouped by coupling matrix
     inverse = inverse.reshape(-1)
     order = np.argsort(inverse, kind="stable")
     grp_ptr = np.searchsorted(inverse[order], np.arange(len(first) + 1)).astype(np.int64)
-    return dict(z=z, tgt=tdata, src=sdata, K=K[0] if len(K) == 1 else K,
-                grp_ptr=grp_ptr, grp_rows=fr[order, 0].copy(), grp_cols=fr[order, 1].copy())
+    out = dict(z=z, tgt=tdata, src=sdata, grp_ptr=grp_ptr, grp_rows=fr[order, 0].copy(),
+               grp_cols=fr[order, 1].copy(), expo=expo, logl0=logl0,
+               first_rows=fr[first, 0].copy(), first_cols=fr[first, 1].copy())
+    if lazy:
+        out["K"] = None
+        return out
+    K = [hk.coupling_matrices(tdata["boxes"], sdata["boxes"], out["first_rows"],
+                              out["first_cols"], z, expo, comp, logl0) for comp in comps]
+    out["K"] = K[0] if len(K) == 1 else K
+    return out
+
+
+def _couple(f: dict, W: np.ndarray, K: np.ndarray | None, lazy) -> np.ndarray:
+    """G[σ] = Σ_τ K_(σ,τ) W[τ] over the admissible blocks: with the stored K,
+    or (``lazy`` = (comp, geometries per batch)) batch by batch."""
+    import numba
+    nc, nth = len(f["tgt"]["boxes"]), numba.get_num_threads()
+    ptr, rows, cols = f["grp_ptr"], f["grp_rows"], f["grp_cols"]
+    if lazy is None:
+        return hk.couple_grouped(W, f["K"] if K is None else K, ptr, rows, cols, nc,
+                                 nth).sum(axis=0)
+    comp, per = lazy
+    G = np.zeros((nc, W.shape[1], W.shape[2]))
+    for g0 in range(0, len(ptr) - 1, per):
+        g1 = min(g0 + per, len(ptr) - 1)
+        Kb = hk.coupling_matrices(f["tgt"]["boxes"], f["src"]["boxes"],
+                                  f["first_rows"][g0:g1].copy(),
+                                  f["first_cols"][g0:g1].copy(), f["z"], f["expo"], comp,
+                                  f["logl0"])
+        b0, b1 = ptr[g0], ptr[g1]
+        G += hk.couple_grouped(W, Kb, ptr[g0:g1 + 1] - b0, rows[b0:b1], cols[b0:b1], nc,
+                               nth).sum(axis=0)
+        del Kb
+    return G
 
 
 def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None,
-              nder: int = 6) -> np.ndarray:
+              nder: int = 6, lazy=None) -> np.ndarray:
     """Σ over admissible blocks of the kernel applied to source functionals
     (src (n_sources, nrhs, 6)); returns value, gradient and Hessian of the
     result at every target point (n_targets, nrhs, 6; only the first ``nder``
-    of them computed, the others zero)."""
+    of them computed, the others zero).  ``lazy`` as in :func:`_couple`."""
     S, T, z = f["src"], f["tgt"], f["z"]
     m = z.shape[0]
     nrhs = src.shape[1]
@@ -462,9 +507,7 @@ def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None,
     hk.leaf_moments(src, S["cent"], S["perm"], S["leaves"], S["start"], S["end"],
                     S["boxes"], z, W)
     hk.upward(W, S["E"], S["level_nodes"], S["level_ptr"], S["child0"], S["child1"], m)
-    import numba
-    G = hk.couple_grouped(W, f["K"] if K is None else K, f["grp_ptr"], f["grp_rows"],
-                          f["grp_cols"], len(T["boxes"]), numba.get_num_threads()).sum(axis=0)
+    G = _couple(f, W, K, lazy)
     hk.downward(G, T["E"], T["level_nodes"], T["level_ptr"], T["child0"], T["child1"], m)
     out = np.zeros((len(T["cent"]), nrhs, 6))
     hk.leaf_evaluate(G, T["cent"], T["perm"], T["leaves"], T["start"], T["end"],

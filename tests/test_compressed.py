@@ -248,3 +248,33 @@ def test_restriction_to_free_nodes_in_place():
     B = _restrict(A, free)
     np.testing.assert_array_equal(B.toarray(), expected)
     assert B.data.nbytes == 8 * B.nnz and B.has_sorted_indices
+
+
+@pytest.mark.parametrize("comps", [(-1,), (0, 1)])
+def test_batched_far_field_matches_stored_coupling_matrices(comps):
+    """far_values makes its coupling matrices batch by batch; the sums equal
+    those with every matrix stored, whatever the batch size."""
+    from fracfem import compressed as C
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-1, 1, (900, 2))
+    pts = rng.uniform(-1, 1, (700, 2))
+    src = np.zeros((len(comps), len(pts), 1, 6))
+    src[..., 0] = rng.standard_normal((len(comps), len(pts), 1))
+    root = C.square_around(x, pts)
+    tt = C.cluster_tree(x, np.zeros(len(x)), 16, root)
+    ts = C.cluster_tree(pts, np.zeros(len(pts)), 16, root)
+    far, _ = C.block_tree(tt, ts, 1.0, 2.0)
+    m, expo = 6, -1.3
+    z = C.chebyshev_points(m)
+    f = C._far_blocks(tt, ts, far, C._tree_data(tt, x, z), C._tree_data(ts, pts, z), z,
+                      expo, comps=comps)
+    K = f["K"] if len(comps) > 1 else [f["K"]]
+    assert len(f["grp_ptr"]) > 20                     # several batches below
+    stored = sum(C._far_pass(f, src[c], K[c], nder=1)[:, 0, 0] for c in range(len(comps)))
+    scale = np.abs(stored).max()
+    assert scale > 0
+    for batch in (None, 8 * m ** 4, 7 * 8 * m ** 4):   # default, one and seven per batch
+        got = C.far_values(tt, ts, far, x, pts, m, expo, src, comps, batch_bytes=batch)
+        assert np.abs(got - stored).max() <= 1e-13 * scale
+    with pytest.raises(ValueError, match="batch_bytes=0"):
+        C.far_values(tt, ts, far, x, pts, m, expo, src, comps, batch_bytes=0)
