@@ -145,3 +145,25 @@ def test_reference_family_error_measures_a_geometric_family_exactly():
     assert fam["d12"] == pytest.approx(C * q * (1 - q) * norm_v, rel=1e-10)
     assert fam["ratio"] == pytest.approx(q, rel=1e-10)
     assert fam["error"] == pytest.approx(C * q**3 * norm_v, rel=1e-10)
+
+
+def test_join_tiers_puts_each_tiers_rate_beside_the_same_row():
+    from fracfem_workflow.report import join_tiers
+    ours = pd.DataFrame({"example": [1, 2, 4], "variant": ["", "", "u1"],
+                         "family": ["adaptive", "uniform", "adaptive"], "s": [0.5, 0.5, 0.5],
+                         "rate": [-0.5, -0.25, -0.16], "n_points": [5, 4, 2],
+                         "dof_max": [15000, 8000, 60000], "smallest_error": [0.01, 0.1, 0.14]})
+    big = pd.DataFrame({"example": [4, 1, 3], "variant": ["u1", np.nan, ""],
+                        "family": ["adaptive", "adaptive", "graded"], "s": [0.5, 0.5, 0.6],
+                        "rate": [-0.31, -0.49, -0.4], "n_points": [6, 9, 3],
+                        "dof_max": [10**7, 10**5, 10**4], "smallest_error": [0.03, 0.002, 0.01]})
+    out = join_tiers(ours, {"paper-scale": big})
+    assert list(out.rate) == list(ours.rate)                  # rows and order kept
+    assert list(out["rate_paper-scale"].iloc[[0, 2]]) == [-0.49, -0.31]
+    assert np.isnan(out["rate_paper-scale"].iloc[1])         # that tier has no such row
+    assert list(out["dof_max_paper-scale"].iloc[[0, 2]]) == [10**5, 10**7]
+    assert len(out) == 3                                      # its extra row is not added
+    with pytest.raises(ValueError, match="repeats a row"):
+        join_tiers(ours, {"x": pd.concat([big, big])})
+    with pytest.raises(ValueError, match="lacks the columns"):
+        join_tiers(ours, {"x": big.drop(columns="dof_max")})

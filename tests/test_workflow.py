@@ -148,3 +148,28 @@ def test_other_data_recompute_the_parabolic_reference(tmp_path, change):
                       f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
                       "--", f"{tmp_path}/o/fig13-ex4-error.png")
     assert f"{tmp_path}/r/para/ex4-u1/reference/h0.025.npz" in text
+
+
+def test_paper_scale_tier_has_its_own_root_and_the_paper_sizes():
+    """config/paper.yaml writes everything under results-paper/, runs Algorithm C and the
+    finer Example 4 reference, reuses the committed elliptic references, and its rate
+    table takes the default tier's committed rates.csv as input."""
+    _, text = dry_run("--configfile", "config/paper.yaml", "--forceall")
+    outputs = re.findall(r"^\s+output: (.*)$", text, re.M)
+    assert outputs and all(o.startswith("results-paper/") for line in outputs
+                           for o in line.split(", "))
+    assert "results-paper/para/ex4-u1/reference/h0.0125.npz" in text
+    assert "vi_adaptive_large" not in job_counts(text)
+    rates = text.split("rule rates:")[1].split("output:")[0]
+    assert "paper-figures/rates.csv" in rates
+
+
+def test_rate_table_reads_another_tier_only_where_it_exists(tmp_path):
+    (tmp_path / "other.csv").write_text("example\n")
+    (tmp_path / "s.yaml").write_text(f"tiers:\n  other: {tmp_path}/other.csv\n"
+                                     f"  absent: {tmp_path}/nothing.csv\n")
+    _, text = dry_run("--configfile", str(tmp_path / "s.yaml"), "--config",
+                      f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
+                      "--", f"{tmp_path}/o/rates.csv")
+    rates = text.split("rule rates:")[1].split("output:")[0]
+    assert f"{tmp_path}/other.csv" in rates and "nothing.csv" not in rates

@@ -57,7 +57,8 @@ for _block in ("example1", "example2", "example3"):   # Example 1: the extrapola
 
 
 def _science(cfg):
-    return {k: v for k, v in cfg.items() if k not in ("output_root", "results_dir")}
+    return {k: v for k, v in cfg.items()
+            if k not in ("output_root", "results_dir", "tier", "tiers")}
 
 
 def _fingerprint(cfg):
@@ -71,6 +72,16 @@ OUT = config["output_root"]
 if OUT == _default["output_root"] and _fingerprint(config) != _fingerprint(_default):
     OUT = f"{RES}/custom-{_fingerprint(config)}/figures"
     logger.info(f"config differs from config.yaml: figures go to {OUT}")
+
+TIER = config.get("tier", "default")
+
+
+def other_tiers(wildcards=None):
+    """{name: rates.csv} of the other tiers whose rate table exists (not this run's own)."""
+    own = Path(OUT, "rates.csv").resolve()
+    return {name: p for name, p in config.get("tiers", {}).items()
+            if name != TIER and Path(p).resolve() != own and Path(p).exists()}
+
 
 ENV = "../envs/fracfem.yaml"
 EX1 = config["example1"]

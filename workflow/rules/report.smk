@@ -6,6 +6,7 @@ rule rates:
         ex1=rules.ex1_table.output.table,
         vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
         para=expand(rules.para_errors.output.csv, problem=PARA_PROBLEMS),
+        tiers=lambda w: list(other_tiers().values()),
     output:
         csv=report(
             f"{OUT}/rates.csv",
@@ -20,6 +21,10 @@ rule rates:
             subcategory="Rate table",
         ),
         tex=f"{OUT}/rates.tex",
+    params:
+        tier=TIER,
+        tiers=other_tiers(),
+        absent=[n for n in config.get("tiers", {}) if n != TIER and n not in other_tiers()],
     log:
         f"{RES}/logs/rates.log",
     benchmark:

@@ -3,7 +3,7 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path, write_table
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.report import rate_table
+from fracfem_workflow.report import join_tiers, rate_table
 
 
 # why a rate can differ from the paper's (README, "Differences from the paper")
@@ -54,7 +54,19 @@ def differences(rates, limit=0.05):
     return lines
 
 
-def main(tables, csv, md, tex):
+def tiers_note(tier, tiers, absent, configured):
+    """What the table holds besides this tier's own rates."""
+    lines = []
+    if tiers:
+        lines.append("Beside this tier's (" + tier + ") rates: " + "; ".join(
+            f"`rate_{n}`, `n_points_{n}`, `dof_max_{n}`, `smallest_error_{n}` from "
+            f"`{p}`" for n, p in tiers.items()) + ", the same rows fitted by the same rule.")
+    for n in absent:
+        lines.append(f"The tier {n} has not been run here (no `{configured[n]}`).")
+    return lines
+
+
+def main(tables, csv, md, tex, tier="default", tiers=None, absent=(), configured=None):
     frames, dropped = [], 0
     for t in tables:
         d = pd.read_csv(t)
@@ -72,13 +84,17 @@ def main(tables, csv, md, tex):
     df = pd.concat(frames, ignore_index=True)
     rates = rate_table(df)
     rates["difference"] = (rates.rate - rates.paper_rate).round(3)
-    write_table(rates, csv)
     diff = differences(rates)
+    tiers = tiers or {}
+    rates = join_tiers(rates, {n: pd.read_csv(p) for n, p in tiers.items()})
+    write_table(rates, csv)
+    notes = tiers_note(tier, tiers, absent, configured or {})
     if dropped:
         diff.append(f"- {dropped} runs with an energy below the reference energy are left "
                     "out of the fits.")
     with atomic_path(md) as tmp:
         tmp.write_text(rates.to_markdown(index=False, floatfmt="g") + "\n"
+                       + ("\n" + "\n\n".join(notes) + "\n" if notes else "")
                        + ("\nWhere ours differ from the paper's by more than 0.05:\n\n"
                           + "\n".join(diff) + "\n" if diff else ""))
     with atomic_path(tex) as tmp:
@@ -102,4 +118,7 @@ if __name__ == "__main__":
     log_to(snakemake.log[0])  # noqa: F821
     main([snakemake.input.ex1] + list(snakemake.input.vi)  # noqa: F821
          + list(snakemake.input.para),  # noqa: F821
-         snakemake.output.csv, snakemake.output.md, snakemake.output.tex)  # noqa: F821
+         snakemake.output.csv, snakemake.output.md, snakemake.output.tex,  # noqa: F821
+         tier=snakemake.params.tier, tiers=dict(snakemake.params.tiers),  # noqa: F821
+         absent=list(snakemake.params.absent),  # noqa: F821
+         configured=dict(snakemake.config.get("tiers", {})))  # noqa: F821

@@ -72,6 +72,13 @@ GROUPS = [
         "smallest_error": "smallest error of the series",
         ("dof_min", "dof_max"): "smallest and largest DOFs of the fit",
     }),
+    ("Rates of the other tiers (`rates.md`, `rates.csv`)", False, {
+        tuple(f"{c}_{t}" for t in ("default", "paper-scale")
+              for c in ("rate", "n_points", "dof_max", "smallest_error")):
+            "the same row's `rate`, `n_points`, `dof_max` and `smallest_error` in the tier "
+            "named after the underscore (`config.yaml`: `tiers`), shown where that tier's "
+            "`rates.csv` exists",
+    }),
     ("Error against wall time (`elliptic-error-vs-time.md`, `parabolic-runs.md`)", True, {
         "common error": "the largest of the families' smallest errors",
         ("t_adaptive [s]", "t_graded [s]", "t_graded-sr [s]", "t_uniform [s]"):

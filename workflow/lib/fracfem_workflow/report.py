@@ -95,6 +95,32 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
     return pd.DataFrame(rows)
 
 
+TIER_KEYS = ["example", "variant", "family", "s"]
+TIER_COLUMNS = ["rate", "n_points", "dof_max", "smallest_error"]
+
+
+def join_tiers(rates: pd.DataFrame, others: dict) -> pd.DataFrame:
+    """The rate table with the rates of other tiers beside it.
+
+    ``others`` maps a tier's name to its rate table (as :func:`rate_table`);
+    each adds the columns ``<column>_<name>`` for the columns TIER_COLUMNS,
+    matched on (example, variant, family, s), NaN where that tier has no such
+    row.  A row of another tier that this table lacks is not added."""
+    out = rates.copy()
+    out["variant"] = out["variant"].fillna("").astype(str)
+    for name, other in others.items():
+        missing = [c for c in TIER_KEYS + TIER_COLUMNS if c not in other]
+        if missing:
+            raise ValueError(f"tier {name!r}: rate table lacks the columns {missing}")
+        o = other[TIER_KEYS + TIER_COLUMNS].copy()
+        o["variant"] = o["variant"].fillna("").astype(str)
+        if o.duplicated(TIER_KEYS).any():
+            raise ValueError(f"tier {name!r}: rate table repeats a row")
+        o = o.rename(columns={c: f"{c}_{name}" for c in TIER_COLUMNS})
+        out = out.merge(o, on=TIER_KEYS, how="left", validate="one_to_one")
+    return out
+
+
 def extrapolate_energy(dofs, energies) -> dict:
     """Limit E_∞ of energies E_k = E_∞ + C N_k^{−β} through the last three points.
 
