@@ -204,7 +204,7 @@ def _start(u0, n):
 
 def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=None,
          lam0=None, u0=None, inner_tol: float | None = None, inner_maxiter: int = 1000,
-         warm_start: bool = True, loose: bool = True):
+         warm_start: bool = True, loose: bool = True, globalize="auto"):
     """Primal–dual active set method for Problem 5.15 with inner Krylov solves.
 
     The sets, the stopping test (fixed-point residual ‖λ − P_Λ(λ + c∘y)‖ below
@@ -228,6 +228,11 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
     loose : solve the steps to the relative KKT residual 1e-6 until the sets
         settle, then those sets once more to ``inner_tol`` (else every step
         to ``inner_tol``); a settled set is only accepted after the accurate solve
+    globalize : "auto" (default): when the active sets cycle or the residual
+        stalls (not halved in ``STALL_STEPS`` steps), go on with feasible
+        steps whose length maximises the dual energy (:func:`_feasible_newton`),
+        which cannot cycle; True: from the first step; False: never (the plain
+        active-set steps)
 
     Returns
     -------
@@ -236,6 +241,8 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
         ``c``, ``inner_iterations`` (per solve, the first two unconstrained),
         ``seconds`` (``initial``, ``iterations``).
     """
+    if globalize not in ("auto", True, False):
+        raise ValueError(f"globalize={globalize!r} must be 'auto', True or False")
     inner_tol = min(tol, 0.1) if inner_tol is None else inner_tol
     B, f, inv_d, M = _check(A, B, f, cset, M, tol, maxiter, inner_tol, inner_maxiter)
     n, m = B.shape
@@ -281,11 +288,25 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
     data_scale = np.linalg.norm(c * d)
     seen, history, n_constrained = set(), [], []
     state = None
+    switched = None
     for step in range(maxiter + 1):
         y = Bt @ u - cset.g
         new_state = _classify(lam, y, c, lower, upper, fixed)
         residual = _fixed_point_residual(lam, y, c, cset,
                                          max(np.linalg.norm(lam), data_scale))
+        if globalize is True or (globalize == "auto" and state is not None and (
+                new_state.tobytes() in seen and not np.array_equal(new_state, state)
+                or _stalled(history + [residual]))):
+            if state is not None:
+                history.append(residual)
+            switched = len(history)
+            log.info("pdas (%s): %s at step %d; feasible steps from here", cset.kind,
+                     "active sets cycle" if new_state.tobytes() in seen else
+                     "residual stalls" if state is not None else "globalised", step)
+            u, lam = _feasible_newton(
+                A, B, Bt, f, cset, c, lam, u, inv_d, solve, free, accuracy, inner_tol, tol,
+                data_scale, maxiter - step, history, n_constrained)
+            break
         if state is not None:
             history.append(residual)
             log.debug("pdas (%s) step %d: |E| = %d, %d inner iterations, residual %.2e",
@@ -323,6 +344,7 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
         "residual": history[-1],
         "n_constrained": n_constrained,
         "c": c,
+        "globalized_at": switched,
         "inner_iterations": inner,
         "seconds": {"initial": t_initial, "iterations": time.perf_counter() - t0},
     }
@@ -330,6 +352,78 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
             "%d unknowns, %.2f s", cset.kind, info["iterations"], sum(inner), info["residual"],
             n, t_initial + info["seconds"]["iterations"])
     return u, lam, info
+
+
+STALL_STEPS = 10         # globalize when the residual was not halved in this many steps
+
+
+def _stalled(history) -> bool:
+    """The residual has not been halved in the last STALL_STEPS active-set steps."""
+    return (len(history) > STALL_STEPS
+            and min(history[-STALL_STEPS:]) > 0.5 * history[-STALL_STEPS - 1])
+
+
+def _feasible_newton(A, B, Bt, f, cset, c, lam, u, inv_d, solve, free, accuracy,
+                     inner_tol, tol, data_scale, maxiter, history, n_constrained):
+    """Active-set steps made monotone: every iterate λ is feasible and increases
+    the dual energy D(λ) = −½(f − Bλ)ᵀA⁻¹(f − Bλ) − gᵀλ, a concave quadratic
+    whose maximiser over the box Λ is the solution.
+
+    From λ with u = A⁻¹(f − Bλ) and y = Bᵀu − g = ∇D(λ): the active-set
+    candidate λ̂ (:func:`pdas`'s step from the sets of λ + c∘y) projected onto
+    Λ, or, when that is no ascent direction, the projected gradient point
+    P_Λ(λ + c∘y) (yᵀd ≥ dᵀdiag(c)⁻¹d > 0 for d ≠ 0).  Along d = λ̃ − λ, u is
+    affine (du = −A⁻¹B d, from the candidate's own solve), so D is an exact
+    1D quadratic and the step α = min(1, yᵀd / dᵀBᵀ(−du)) maximises it: no extra
+    solve.  D cannot decrease, so the sets cannot cycle; near the solution λ̂
+    is the solution, α = 1, and the active-set steps' fast local convergence
+    is kept.  Appends to ``history`` and ``n_constrained``; returns (u, λ).
+    """
+    lower, upper = cset.lower, cset.upper
+    fixed = lower == upper
+    lam = cset.project(lam)
+    u, _ = solve(f - B @ lam, u, free, None, accuracy)
+    previous = None
+    for it in range(maxiter + 1):
+        y = Bt @ u - cset.g
+        residual = _fixed_point_residual(lam, y, c, cset,
+                                         max(np.linalg.norm(lam), data_scale))
+        state = _classify(lam, y, c, lower, upper, fixed)
+        settled = residual < tol or (previous is not None and np.array_equal(state, previous))
+        if settled and accuracy > inner_tol:
+            accuracy = inner_tol        # the sets have settled: on from accurate solves
+            u, _ = solve(f - B @ lam, u, free, None, accuracy)
+            previous = None
+            continue
+        history.append(residual)
+        if residual < tol:
+            return u, lam
+        if it == maxiter:
+            break
+        previous = state
+        E = np.flatnonzero(state == 0)
+        n_constrained.append(int(E.size))
+        cand = np.where(state > 0, upper, np.where(state < 0, lower, 0.0))
+        u_c, cand[E] = solve(f - B @ cand, u, _Projector(B[:, E], inv_d), cset.g[E],
+                             accuracy)
+        feasible = cset.project(cand)
+        if not np.array_equal(feasible, cand):
+            u_c, _ = solve(f - B @ feasible, u_c, free, None, accuracy)
+        d, du = feasible - lam, u_c - u
+        slope = float(y @ d)
+        if not slope > 0.0:             # no ascent: the projected gradient point
+            feasible = cset.project(lam + c * y)
+            u_c, _ = solve(f - B @ feasible, u, free, None, accuracy)
+            d, du = feasible - lam, u_c - u
+            slope = float(y @ d)
+        curvature = -float(d @ (Bt @ du))   # dᵀ BᵀA⁻¹B d ≥ 0
+        alpha = 1.0 if not curvature > 0.0 else min(1.0, slope / curvature)
+        lam = cset.project(lam + alpha * d)
+        u = u + alpha * du
+        log.debug("pdas (%s) feasible step: |E| = %d, step %.3g, residual %.2e", cset.kind,
+                  E.size, alpha, residual)
+    raise ConvergenceError(f"PDAS ({cset.kind}) with feasible steps did not reach "
+                           f"tol = {tol:g}", len(history), history[-1])
 
 
 # --------------------------------------------------------------------------- Uzawa

@@ -383,7 +383,7 @@ def _uzawa_loop(dual_gradient, cset, rho, tol, maxiter, lam):
 
 
 def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
-         lam0=None, factor=None, schur=None, **krylov):
+         lam0=None, factor=None, schur=None, globalize="auto", **krylov):
     """Primal–dual active set (semismooth Newton) method for Problem 5.15.
 
     With y = Bᵀu − g and z = λ + c∘y, each step takes the sets
@@ -392,9 +392,12 @@ def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
     λ_E unknown), and solves the reduced saddle system through the dense Schur
     complement S_EE = B_EᵀA⁻¹B_E (all of S = BᵀA⁻¹B is formed once, 2n²m flops,
     then each step costs one Cholesky factorisation of S_EE).  It stops when the
-    sets repeat, which means the KKT system holds exactly; a cycle of sets is
-    broken by halving c.  Exactly singular S_EE (see :func:`schur_spectrum`) are
-    solved in the minimum-norm sense.
+    sets repeat, which means the KKT system holds exactly.  For an S that is no
+    M-matrix the sets can cycle or the residual stall; then (``globalize``) the
+    steps go on from feasible multipliers with the step length that maximises the
+    dual energy, which cannot cycle (:func:`fracfem.krylov_vi._feasible_newton`).
+    Exactly singular S_EE (see :func:`schur_spectrum`) are solved in the
+    minimum-norm sense.
 
     Parameters
     ----------
@@ -413,12 +416,16 @@ def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
         Cholesky factor of A (:func:`cholesky_factor`), reused if given.
     schur : (m, m) array, optional
         Precomputed S = BᵀA⁻¹B (:func:`schur_complement`), reused if given.
+    globalize : "auto", True or False
+        "auto": feasible, energy-maximising steps once the sets cycle or the
+        residual stalls; True: from the first step; False: never.
 
     Returns
     -------
     u, lam, info
         ``info`` holds ``iterations``, ``residuals``, ``residual``, ``n_constrained``
-        (|E| per step: contact resp. stick multipliers), ``c``, ``seconds``
+        (|E| per step: contact resp. stick multipliers), ``c``, ``globalized_at``
+        (the step from which the steps were feasible, or None), ``seconds``
         (``factorisation``, ``schur``, ``iterations``).
 
     An A that is a ``scipy.sparse.linalg.LinearOperator`` goes to
@@ -428,9 +435,11 @@ def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
     if _is_operator(A, factor, schur, krylov):
         from .krylov_vi import pdas as pdas_operator
         return pdas_operator(A, B, f, cset, tol=tol, maxiter=maxiter, c=c, lam0=lam0,
-                             **krylov)
+                             globalize=globalize, **krylov)
     if not (isinstance(maxiter, (int, np.integer)) and maxiter >= 1):
         raise ValueError(f"maxiter must be a positive integer; got {maxiter!r}")
+    if globalize not in ("auto", True, False):
+        raise ValueError(f"globalize={globalize!r} must be 'auto', True or False")
     factor, B, f, t_factor = _check_problem(A, B, f, cset, factor)
     m = B.shape[1]
 
@@ -447,8 +456,8 @@ def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
         raise ValueError("c must be positive and finite")
 
     t0 = time.perf_counter()
-    lam, history, n_constrained, c = _pdas_loop(S, d, cset, c, tol, maxiter,
-                                                _initial_multiplier(cset, lam0))
+    lam, history, n_constrained, c, switched = _pdas_loop(
+        S, d, cset, c, tol, maxiter, _initial_multiplier(cset, lam0), globalize)
     u = _solve(factor, f - B @ lam)
     info = {
         "iterations": len(history),
@@ -456,6 +465,7 @@ def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
         "residual": history[-1],
         "n_constrained": n_constrained,
         "c": c,
+        "globalized_at": switched,
         "seconds": {"factorisation": t_factor, "schur": t_schur,
                     "iterations": time.perf_counter() - t0},
     }
@@ -471,6 +481,36 @@ def _classify(lam, y, c, lower, upper, fixed):
     state = np.where(z > upper, 1, np.where(z < lower, -1, 0))
     state[fixed] = 1  # lower == upper: λ is determined, never in E
     return state
+
+
+def _feasible_steps_dense(S, d, cset, c, tol, maxiter, lam, data_scale, history,
+                          n_constrained):
+    """:func:`fracfem.krylov_vi._feasible_newton` with S = BᵀA⁻¹B at hand: y = d − Sλ
+    and the curvature dᵀSd directly.  Appends to ``history`` and ``n_constrained``."""
+    lower, upper = cset.lower, cset.upper
+    fixed = lower == upper
+    lam = cset.project(lam)
+    for it in range(maxiter + 1):
+        y = d - S @ lam
+        residual = _fixed_point_residual(lam, y, c, cset,
+                                         max(np.linalg.norm(lam), data_scale))
+        history.append(residual)
+        if residual < tol:
+            return lam
+        if it == maxiter:
+            break
+        state = _classify(lam, y, c, lower, upper, fixed)
+        n_constrained.append(int(np.count_nonzero(state == 0)))
+        step = cset.project(_reduced_solve(S, d, state, lower, upper)) - lam
+        slope = float(y @ step)
+        if not slope > 0.0:              # no ascent: the projected gradient point
+            step = cset.project(lam + c * y) - lam
+            slope = float(y @ step)
+        curvature = float(step @ (S @ step))
+        alpha = 1.0 if not curvature > 0.0 else min(1.0, slope / curvature)
+        lam = cset.project(lam + alpha * step)
+    raise ConvergenceError(f"PDAS ({cset.kind}) with feasible steps did not reach "
+                           f"tol = {tol:g}", len(history), history[-1])
 
 
 def _reduced_solve(S, d, state, lower, upper):
@@ -510,8 +550,10 @@ def _fixed_point_residual(lam, y, c, cset, scale):
     return _relative(np.linalg.norm(lam - cset.project(lam + c * y)), scale)
 
 
-def _pdas_loop(S, d, cset, c, tol, maxiter, lam):
-    """Active-set steps in the multiplier space; returns (λ, history, |E|, c)."""
+def _pdas_loop(S, d, cset, c, tol, maxiter, lam, globalize="auto"):
+    """Active-set steps in the multiplier space; returns (λ, history, |E|, c, the
+    step from which they were feasible or None)."""
+    from .krylov_vi import _stalled
     lower, upper = cset.lower, cset.upper
     fixed = lower == upper  # e.g. F_j = 0 outside the friction subdomain
     data_scale = np.linalg.norm(c * d)
@@ -522,11 +564,21 @@ def _pdas_loop(S, d, cset, c, tol, maxiter, lam):
         new_state = _classify(lam, y, c, lower, upper, fixed)
         residual = _fixed_point_residual(lam, y, c, cset,
                                          max(np.linalg.norm(lam), data_scale))
+        if globalize is True or (globalize == "auto" and state is not None and (
+                new_state.tobytes() in seen and not np.array_equal(new_state, state)
+                or _stalled(history + [residual]))):
+            if state is not None:
+                history.append(residual)
+            switched = len(history)
+            logger.info("pdas (%s): feasible steps from step %d", cset.kind, step)
+            lam = _feasible_steps_dense(S, d, cset, c, tol, maxiter - step, lam,
+                                        data_scale, history, n_constrained)
+            return lam, history, n_constrained, c, switched
         if state is not None:
             history.append(residual)
             if residual < tol and (np.array_equal(new_state, state)
                                    or residual < 0.1 * tol):
-                return lam, history, n_constrained, c
+                return lam, history, n_constrained, c, None
             if np.array_equal(new_state, state):
                 raise ConvergenceError("PDAS: the active sets repeat but the residual "
                                        f"is above tol = {tol:g}", step, residual)

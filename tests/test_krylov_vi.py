@@ -8,6 +8,7 @@ compression error, tol = 1e-10, enters as well).
 import numpy as np
 import pytest
 import scipy.linalg as la
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from test_solvers import interior_B, load, odd, one, segment_B, standin
 
@@ -249,7 +250,8 @@ def test_bad_arguments_name_the_parameter():
     for kwargs, name in [({"tol": 0.0}, "tol"), ({"maxiter": 0}, "maxiter"),
                          ({"inner_tol": 1.5}, "inner_tol"), ({"inner_maxiter": 0}, "inner_maxiter"),
                          ({"M": "jacobi"}, "M"), ({"u0": np.ones(3)}, "u0"),
-                         ({"lam0": np.ones(3)}, "lam0"), ({"c": -1.0}, "c")]:
+                         ({"lam0": np.ones(3)}, "lam0"), ({"c": -1.0}, "c"),
+                         ({"globalize": "yes"}, "globalize")]:
         with pytest.raises(ValueError, match=name):
             krylov_vi.pdas(op, B, f, cset, **kwargs)
     with pytest.raises(ValueError, match="rho"):
@@ -318,3 +320,52 @@ def test_nested_iteration_needs_fewer_pdas_steps_and_solves_the_same_problem():
     assert info["iterations"] <= cold["iterations"] - 2
     with pytest.raises(ValueError, match="sets lam0"):
         next(vi.solve_nested(problems(), "pdas", lam0=lam))
+
+
+def cycling_box_problem():
+    """A box problem (B = I, friction bounds) on which the plain active-set steps
+    never settle: A is SPD, but BᵀA⁻¹B = A⁻¹ is not an M-matrix (found by a search
+    over random 3–8 dimensional problems; this is seed 1541)."""
+    rng = np.random.default_rng(1541)
+    n = int(rng.integers(3, 9))
+    Q = np.linalg.qr(rng.standard_normal((n, n)))[0]
+    A = Q @ np.diag(10 ** rng.uniform(0, 3, n)) @ Q.T
+    A = 0.5 * (A + A.T)
+    B = sp.identity(n, format="csr")
+    f = rng.standard_normal(n) * 10
+    return A, B, f, Friction(B, rng.uniform(0.1, 5, n))
+
+
+def test_feasible_steps_solve_where_plain_active_set_steps_cycle():
+    A, B, f, cset = cycling_box_problem()
+    with pytest.raises(ConvergenceError):
+        krylov_vi.pdas(Operator(A), B, f, cset, globalize=False, maxiter=60, loose=False)
+    u, lam, info = krylov_vi.pdas(Operator(A), B, f, cset, maxiter=60)
+    assert info["globalized_at"] is not None and info["residual"] < 1e-10
+    inside = assert_kkt(cset, B, u, lam, 1e-9, la.solve(A, f))
+    assert 0 < np.count_nonzero(inside) < len(f)          # stick and slip
+    assert np.abs(A @ u + lam - f).max() <= 1e-9 * np.abs(f).max()
+    # the dense path (S = BᵀA⁻¹B formed) cycles the same way, halving c in vain,
+    # and its feasible steps find the same point
+    with pytest.raises(ConvergenceError):
+        solvers.pdas(A, B, f, cset, globalize=False)
+    u_ref, lam_ref, info_ref = solvers.pdas(A, B, f, cset)
+    assert info_ref["globalized_at"] is not None
+    assert_kkt(cset, B, u_ref, lam_ref, 1e-9, la.solve(A, f))
+    assert_close(u, lam, u_ref, lam_ref, B, AGREE)
+
+
+@pytest.mark.parametrize("kind", ["obstacle", "friction"])
+def test_feasible_steps_from_the_start_reach_the_dense_solution(kind):
+    """globalize=True: every step feasible and monotone in the dual energy; the
+    same solution as the dense path, in few steps (the active-set candidate is
+    taken whole near the solution)."""
+    A, cset, f = standin_case(kind, 2)
+    u_ref, lam_ref, info_ref = solvers.pdas(A, cset.B, f, cset)
+    assert info_ref["globalized_at"] is None          # plain steps suffice here
+    u, lam, info = krylov_vi.pdas(Operator(A), cset.B, f, cset, globalize=True)
+    assert info["globalized_at"] == 0 and info["iterations"] <= 15
+    assert_close(u, lam, u_ref, lam_ref, cset.B, AGREE)
+    u2, lam2, info2 = solvers.pdas(A, cset.B, f, cset, globalize=True)
+    assert info2["globalized_at"] == 0 and info2["iterations"] <= 15
+    assert_close(u2, lam2, u_ref, lam_ref, cset.B, AGREE)
