@@ -373,8 +373,9 @@ def _feasible_newton(A, B, Bt, f, cset, c, lam, u, inv_d, solve, free, accuracy,
     candidate λ̂ (:func:`pdas`'s step from the sets of λ + c∘y) projected onto
     Λ, or, when that is no ascent direction, the projected gradient point
     P_Λ(λ + c∘y) (yᵀd ≥ dᵀdiag(c)⁻¹d > 0 for d ≠ 0).  Along d = λ̃ − λ, u is
-    affine (du = −A⁻¹B d, from the candidate's own solve), so D is an exact
-    1D quadratic and the step α = min(1, yᵀd / dᵀBᵀ(−du)) maximises it: no extra
+    affine (du = −A⁻¹B d, from the solve at λ̃: the candidate's own when the
+    projection left it unchanged, else one more), so D is an exact 1D quadratic
+    and the step α = min(1, yᵀd / dᵀBᵀ(−du)) maximises it without a further
     solve.  D cannot decrease, so the sets cannot cycle; near the solution λ̂
     is the solution, α = 1, and the active-set steps' fast local convergence
     is kept.  Appends to ``history`` and ``n_constrained``; returns (u, λ).
