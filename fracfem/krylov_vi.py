@@ -32,8 +32,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ._progress import solver_level
-from .solvers import (SAFE_STEP, ConvergenceError, _classify, _fixed_point_residual,
-                      _initial_multiplier, _uzawa_loop)
+from .solvers import (SAFE_STEP, ConvergenceError, _check_globalize, _classify,
+                      _fixed_point_residual, _globalize_reason, _initial_multiplier,
+                      _uzawa_loop)
 
 log = logging.getLogger(__name__)
 
@@ -229,7 +230,7 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
         settle, then those sets once more to ``inner_tol`` (else every step
         to ``inner_tol``); a settled set is only accepted after the accurate solve
     globalize : "auto" (default): when the active sets cycle or the residual
-        stalls (not halved in ``STALL_STEPS`` steps), go on with feasible
+        stalls (not halved in ``solvers.STALL_STEPS`` steps), go on with feasible
         steps whose length maximises the dual energy (:func:`_feasible_newton`),
         which cannot cycle; True: from the first step; False: never (the plain
         active-set steps)
@@ -241,8 +242,7 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
         ``c``, ``inner_iterations`` (per solve, the first two unconstrained),
         ``seconds`` (``initial``, ``iterations``).
     """
-    if globalize not in ("auto", True, False):
-        raise ValueError(f"globalize={globalize!r} must be 'auto', True or False")
+    _check_globalize(globalize)
     inner_tol = min(tol, 0.1) if inner_tol is None else inner_tol
     B, f, inv_d, M = _check(A, B, f, cset, M, tol, maxiter, inner_tol, inner_maxiter)
     n, m = B.shape
@@ -294,15 +294,13 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
         new_state = _classify(lam, y, c, lower, upper, fixed)
         residual = _fixed_point_residual(lam, y, c, cset,
                                          max(np.linalg.norm(lam), data_scale))
-        if globalize is True or (globalize == "auto" and state is not None and (
-                new_state.tobytes() in seen and not np.array_equal(new_state, state)
-                or _stalled(history + [residual]))):
+        reason = _globalize_reason(globalize, state, new_state, seen, history, residual)
+        if reason:
             if state is not None:
                 history.append(residual)
             switched = len(history)
             log.info("pdas (%s): %s at step %d; feasible steps from here", cset.kind,
-                     "active sets cycle" if new_state.tobytes() in seen else
-                     "residual stalls" if state is not None else "globalised", step)
+                     reason, step)
             u, lam = _feasible_newton(
                 A, B, Bt, f, cset, c, lam, u, inv_d, solve, free, accuracy, inner_tol, tol,
                 data_scale, maxiter - step, history, n_constrained)
@@ -352,15 +350,6 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
             "%d unknowns, %.2f s", cset.kind, info["iterations"], sum(inner), info["residual"],
             n, t_initial + info["seconds"]["iterations"])
     return u, lam, info
-
-
-STALL_STEPS = 10         # globalize when the residual was not halved in this many steps
-
-
-def _stalled(history) -> bool:
-    """The residual has not been halved in the last STALL_STEPS active-set steps."""
-    return (len(history) > STALL_STEPS
-            and min(history[-STALL_STEPS:]) > 0.5 * history[-STALL_STEPS - 1])
 
 
 def _feasible_newton(A, B, Bt, f, cset, c, lam, u, inv_d, solve, free, accuracy,

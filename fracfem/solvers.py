@@ -438,8 +438,7 @@ def pdas(A, B, f, cset, *, tol: float = 1e-10, maxiter: int = 200, c=None,
                              globalize=globalize, **krylov)
     if not (isinstance(maxiter, (int, np.integer)) and maxiter >= 1):
         raise ValueError(f"maxiter must be a positive integer; got {maxiter!r}")
-    if globalize not in ("auto", True, False):
-        raise ValueError(f"globalize={globalize!r} must be 'auto', True or False")
+    _check_globalize(globalize)
     factor, B, f, t_factor = _check_problem(A, B, f, cset, factor)
     m = B.shape[1]
 
@@ -481,6 +480,35 @@ def _classify(lam, y, c, lower, upper, fixed):
     state = np.where(z > upper, 1, np.where(z < lower, -1, 0))
     state[fixed] = 1  # lower == upper: λ is determined, never in E
     return state
+
+
+STALL_STEPS = 10         # globalize when the residual was not halved in this many steps
+
+
+def _check_globalize(globalize):
+    if globalize not in ("auto", True, False):
+        raise ValueError(f"globalize={globalize!r} must be 'auto', True or False")
+
+
+def _stalled(history) -> bool:
+    """The residual has not been halved in the last STALL_STEPS active-set steps."""
+    return (len(history) > STALL_STEPS
+            and min(history[-STALL_STEPS:]) > 0.5 * history[-STALL_STEPS - 1])
+
+
+def _globalize_reason(globalize, state, new_state, seen, history, residual):
+    """Why the active-set steps go on as feasible steps now, or None: always
+    (globalize=True), or with "auto" once the sets come back to an earlier
+    (not the current) one or the residual stalls."""
+    if globalize is True:
+        return "globalised"
+    if globalize != "auto" or state is None:
+        return None
+    if new_state.tobytes() in seen and not np.array_equal(new_state, state):
+        return "active sets cycle"
+    if _stalled(history + [residual]):
+        return "residual stalls"
+    return None
 
 
 def _feasible_steps_dense(S, d, cset, c, tol, maxiter, lam, data_scale, history,
@@ -553,7 +581,6 @@ def _fixed_point_residual(lam, y, c, cset, scale):
 def _pdas_loop(S, d, cset, c, tol, maxiter, lam, globalize="auto"):
     """Active-set steps in the multiplier space; returns (λ, history, |E|, c, the
     step from which they were feasible or None)."""
-    from .krylov_vi import _stalled
     lower, upper = cset.lower, cset.upper
     fixed = lower == upper  # e.g. F_j = 0 outside the friction subdomain
     data_scale = np.linalg.norm(c * d)
@@ -564,13 +591,13 @@ def _pdas_loop(S, d, cset, c, tol, maxiter, lam, globalize="auto"):
         new_state = _classify(lam, y, c, lower, upper, fixed)
         residual = _fixed_point_residual(lam, y, c, cset,
                                          max(np.linalg.norm(lam), data_scale))
-        if globalize is True or (globalize == "auto" and state is not None and (
-                new_state.tobytes() in seen and not np.array_equal(new_state, state)
-                or _stalled(history + [residual]))):
+        reason = _globalize_reason(globalize, state, new_state, seen, history, residual)
+        if reason:
             if state is not None:
                 history.append(residual)
             switched = len(history)
-            logger.info("pdas (%s): feasible steps from step %d", cset.kind, step)
+            logger.info("pdas (%s): %s at step %d; feasible steps from here", cset.kind,
+                        reason, step)
             lam = _feasible_steps_dense(S, d, cset, c, tol, maxiter - step, lam,
                                         data_scale, history, n_constrained)
             return lam, history, n_constrained, c, switched
