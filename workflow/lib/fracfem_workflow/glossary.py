@@ -176,8 +176,8 @@ GROUPS = [
     ("Example 5's uniform rate (`ex5-uniform-rate.md`)", False, {
         "case": "Example 5 as configured, or one change of it",
         "reference run": "the graded run the case's series is measured against",
-        "local slope": "slope of log `error` against log `spacetime_dofs` from the previous "
-                       "run of the series",
+        "local slope": "slope of log `error` against log `dofs` (Examples 4, 5: "
+                       "`spacetime_dofs`) from the previous run of the series",
         "last local slope": "`local slope` of the finest run",
     }),
     ("Stability (`stability.md`, `stability-vi.md`)", False, {
