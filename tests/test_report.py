@@ -167,3 +167,17 @@ def test_join_tiers_puts_each_tiers_rate_beside_the_same_row():
         join_tiers(ours, {"x": pd.concat([big, big])})
     with pytest.raises(ValueError, match="lacks the columns"):
         join_tiers(ours, {"x": big.drop(columns="dof_max")})
+
+
+def test_local_slopes_per_series():
+    from fracfem_workflow.report import local_slopes
+    N = np.array([10.0, 40.0, 160.0, 10.0, 100.0])
+    err = np.concatenate([N[:3] ** -0.25, [1.0, 0.1]])
+    fam = ["a", "a", "a", "b", "b"]
+    slopes = local_slopes(N, err, fam).to_numpy()
+    assert np.isnan(slopes[0]) and np.isnan(slopes[3])     # each series' first run
+    np.testing.assert_allclose(slopes[[1, 2, 4]], [-0.25, -0.25, -1.0])
+    # two keys: (s, family); a series of one run has no slope
+    s = [0.5, 0.5, 0.75, 0.5, 0.5]
+    two = local_slopes(N, err, (s, fam)).to_numpy()
+    assert np.isnan(two[2]) and two[1] == pytest.approx(-0.25)

@@ -1,12 +1,11 @@
 """Extra figures of Example 1: error vs wall time; error vs DOFs for every s."""
-import numpy as np
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, FAMILY_LABELS, MARKERS, WALL_TIME,
                                         plain_log_ticks, plt, save)
-from fracfem_workflow.report import fit_rate
+from fracfem_workflow.report import fit_rate, local_slopes
 
 
 def main(table, time_png, orders_png, errors_md):
@@ -14,9 +13,8 @@ def main(table, time_png, orders_png, errors_md):
     cols = ["s", "family", "dofs", "error", "eta", "efficiency", "t_assembly", "t_solve",
             "t_total", "t_cumulative", "peak_mem_mb"]
     summary = df[cols].sort_values(["s", "family", "dofs"]).reset_index(drop=True)
-    series = summary.groupby(["s", "family"])
-    summary.insert(4, "local slope", series.error.transform(lambda e: np.log(e).diff())
-                   / series.dofs.transform(lambda n: np.log(n).diff()))
+    summary.insert(4, "local slope", local_slopes(summary.dofs, summary.error,
+                                                  (summary.s, summary.family)).to_numpy())
     with atomic_path(errors_md) as tmp:
         tmp.write_text(summary.to_markdown(index=False, floatfmt=".4g") + "\n")
     colours = {s: f"C{i}" for i, s in enumerate(sorted(df.s.unique()))}

@@ -8,7 +8,6 @@ from the same u₀); and with u₀ = 1 instead of the ring (|x| − 1)(|x| − r
 value that does not vanish on ∂Ω, as in Example 4.  Local slopes between consecutive runs
 show whether a fitted rate is still pre-asymptotic.
 """
-import numpy as np
 import pandas as pd
 
 import fracfem as ff
@@ -16,7 +15,7 @@ from fracfem.meshes import mesh_size
 from fracfem.transfer import SpaceTimeReference
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.report import fit_mask, masked_rate, reference_family_error
+from fracfem_workflow.report import fit_mask, local_slopes, masked_rate, reference_family_error
 from fracfem_workflow.runs import parameter_columns, start
 
 logger = script_logger("ex5_uniform_cause")
@@ -59,8 +58,7 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
             rows.append({"case": name, "tag": tag, "spacetime_dofs": len(fr) * len(pieces),
                          "error": reference.distance(pieces), "reference_error": ref_err})
     df = pd.DataFrame(rows)
-    df["local slope"] = (np.log(df.error).groupby(df.case).diff()
-                         / np.log(df.spacetime_dofs).groupby(df.case).diff())
+    df["local slope"] = local_slopes(df.spacetime_dofs, df.error, df.case).to_numpy()
     summary = []
     for name, g in df.groupby("case", sort=False):
         keep = fit_mask(g.error, g.reference_error.iloc[0])

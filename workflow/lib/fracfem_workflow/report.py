@@ -40,6 +40,17 @@ def fit_rate(dofs, errors) -> float:
     return float(np.polyfit(np.log(dofs), np.log(errors), 1)[0])
 
 
+def local_slopes(dofs, errors, series) -> pd.Series:
+    """Slope of log(error) against log(DOFs) from the previous run of the same series
+    (rows in order within each series; NaN for a series' first run).  series: the
+    series of each row, or a tuple of such keys."""
+    dofs = pd.Series(np.asarray(dofs, dtype=float))
+    errors = pd.Series(np.asarray(errors, dtype=float))
+    keys = [pd.Series(np.asarray(k)) for k in (series if isinstance(series, tuple)
+                                                else (series,))]
+    return (np.log(errors).groupby(keys).diff() / np.log(dofs).groupby(keys).diff())
+
+
 # A rate is fitted only through runs whose error exceeds REFERENCE_MARGIN times the
 # reference's own error: closer to it, the measured error is as much the reference's as
 # the run's.  Fixed before any rate was looked at; the README states it.
