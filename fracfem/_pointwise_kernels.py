@@ -82,9 +82,10 @@ def _single_near(x0, x1, ax, ay, bx, by, s, logl0, l0p, gx, gw, piece):  # pragm
 
 
 @njit(cache=True)
-def _double_near(x0, x1, ax, ay, bx, by, ua, ub, s, gx, gw, piece):  # pragma: no cover
-    """d_e ∫_[a,b] u(y) |x − y|^(−2−2s) dℓ(y), u linear from ua to ub, by the
-    sinh substitution; d_e = (a − x)·n with n the right-hand normal of a → b."""
+def _double_near(x0, x1, ax, ay, bx, by, s, gx, gw, piece):  # pragma: no cover
+    """(w_a, w_b) with d_e ∫_[a,b] u(y) |x − y|^(−2−2s) dℓ(y) = w_a u_a + w_b u_b for
+    u linear from u_a to u_b, by the sinh substitution; d_e = (a − x)·n with n
+    the right-hand normal of a → b."""
     tx = bx - ax
     ty = by - ay
     ln = np.sqrt(tx * tx + ty * ty)
@@ -96,25 +97,25 @@ def _double_near(x0, x1, ax, ay, bx, by, ua, ub, s, gx, gw, piece):  # pragma: n
     d = px * ty - py * tx               # signed: (a − x)·(ty, −tx)
     ad = abs(d)
     if ad <= 1e-13 * ln:
-        return 0.0
+        return 0.0, 0.0
     v1 = np.arcsinh(t1 / ad)
     v2 = np.arcsinh((t1 + ln) / ad)
     npc = max(1, int(np.ceil((v2 - v1) / piece)))
     hv = (v2 - v1) / npc
-    du = (ub - ua) / ln
     ng = gx.shape[0]
-    acc = 0.0
+    acc_a = 0.0
+    acc_b = 0.0
     for k in range(npc):
         va = v1 + k * hv
-        part = 0.0
         for g in range(ng):
             v = va + hv * gx[g]
-            tt = ad * np.sinh(v)            # position from the foot point
-            uu = ua + du * (tt - t1)
-            part += gw[g] * uu * np.cosh(v) ** (-1.0 - 2.0 * s)
-        acc += part
+            xi = (ad * np.sinh(v) - t1) / ln      # position along e in [0, 1]
+            w = gw[g] * np.cosh(v) ** (-1.0 - 2.0 * s)
+            acc_a += w * (1.0 - xi)
+            acc_b += w * xi
     # d ∫ u (d² + t²)^(−1−s) dt, dt = |d| cosh v dv
-    return np.sign(d) * ad ** (-2.0 * s) * acc * hv
+    c = np.sign(d) * ad ** (-2.0 * s) * hv
+    return c * acc_a, c * acc_b
 
 
 @njit(cache=True, inline="always")
@@ -127,17 +128,17 @@ def _level(q, rat2):  # pragma: no cover
 
 
 @njit(cache=True, inline="always")
-def single_term(x0, x1, edata, e, s, logl0, l0s, near2, rat2, gl_x, gl_w, gl_off, nx, nw,
+def single_weight(x0, x1, edata, e, s, logl0, l0s, near2, rat2, gl_x, gl_w, gl_off, nx, nw,
                 piece):  # pragma: no cover
-    """J_e |e| ∫_e G(|x − y|) dℓ(y) by the rule of edge e's distance class
-    (l0s = ℓ₀^(−2s), logl0 = log ℓ₀)."""
+    """∫_e G(|x − y|) dℓ(y) / |e| by the rule of edge e's distance class
+    (l0s = ℓ₀^(−2s), logl0 = log ℓ₀); the edge's term is J_e |e| times this."""
     s2 = 2.0 * s
     mx = edata[e, 4] - x0
     my = edata[e, 5] - x1
     r2 = mx * mx + my * my
     q = r2 * edata[e, 6]
     if q < near2:
-        return edata[e, 7] * edata[e, 6] ** 0.5 * _single_near(
+        return edata[e, 6] ** 0.5 * _single_near(
             x0, x1, edata[e, 0], edata[e, 1], edata[e, 2], edata[e, 3],
             s, logl0, l0s / s2, nx, nw, piece)
     lev = _level(q, rat2)
@@ -154,7 +155,7 @@ def single_term(x0, x1, edata, e, s, logl0, l0s, near2, rat2, gl_x, gl_w, gl_off
             rp = np.exp(-s * np.log(r2))
         pz = mx * tx + my * ty
         f2 = rp / r2 * ((s2 + 2.0) * pz * pz * edata[e, 6] / r2 - 1.0)
-        return edata[e, 7] * ((rp - l0s) / s2 + f2 / (24.0 * edata[e, 6]))
+        return (rp - l0s) / s2 + f2 / (24.0 * edata[e, 6])
     part = 0.0
     wsum = 0.0
     for g in range(gl_off[lev], gl_off[lev + 1]):
@@ -165,14 +166,15 @@ def single_term(x0, x1, edata, e, s, logl0, l0s, near2, rat2, gl_x, gl_w, gl_off
         else:
             part += gl_w[g] * np.exp(-s * np.log(yx * yx + yy * yy))
         wsum += gl_w[g]
-    return edata[e, 7] * (part - wsum * l0s) / s2
+    return (part - wsum * l0s) / s2
 
 
 @njit(cache=True, inline="always")
-def double_term(x0, x1, ba, bb, bu, e, s, near2, brat2, bgl_x, bgl_w, bgl_off, nx, nw,
-                piece):  # pragma: no cover
-    """d_e(x) ∫_e u(y)|x − y|^(−2−2s) dℓ(y) of boundary edge e by the rule of
-    its distance class."""
+def double_weights(x0, x1, ba, bb, e, s, near2, brat2, bgl_x, bgl_w, bgl_off, nx, nw,
+                   piece):  # pragma: no cover
+    """(w_a, w_b): d_e(x) ∫_e u(y)|x − y|^(−2−2s) dℓ(y) = w_a u_a + w_b u_b for
+    boundary edge e, u linear between its end values, by the rule of its
+    distance class."""
     ax = ba[e, 0]
     ay = ba[e, 1]
     tx = bb[e, 0] - ax
@@ -182,63 +184,71 @@ def double_term(x0, x1, ba, bb, bu, e, s, near2, brat2, bgl_x, bgl_w, bgl_off, n
     my = ay + 0.5 * ty - x1
     q = (mx * mx + my * my) / l2
     if q < near2:
-        return _double_near(x0, x1, ax, ay, bb[e, 0], bb[e, 1], bu[e, 0], bu[e, 1], s,
-                            nx, nw, piece)
+        return _double_near(x0, x1, ax, ay, bb[e, 0], bb[e, 1], s, nx, nw, piece)
     lev = _level(q, brat2)
     ln = np.sqrt(l2)
     d = ((ax - x0) * ty - (ay - x1) * tx) / ln
     ex = -1.0 - s
-    part = 0.0
+    pa = 0.0
+    pb = 0.0
     for g in range(bgl_off[lev], bgl_off[lev + 1]):
         yx = ax + bgl_x[g] * tx - x0
         yy = ay + bgl_x[g] * ty - x1
-        uu = bu[e, 0] + bgl_x[g] * (bu[e, 1] - bu[e, 0])
-        part += bgl_w[g] * uu * (yx * yx + yy * yy) ** ex
-    return d * ln * part
+        w = bgl_w[g] * (yx * yx + yy * yy) ** ex
+        pa += w * (1.0 - bgl_x[g])
+        pb += w * bgl_x[g]
+    return d * ln * pa, d * ln * pb
 
 
 @njit(cache=True, parallel=True)
-def riesz_edges(x, edata, ba, bb, bu, s, logl0, near, ratios, gl_x, gl_w, gl_off,
+def riesz_edges(x, edata, coef, ba, bb, bu, s, logl0, near, ratios, gl_x, gl_w, gl_off,
                 bratios, bgl_x, bgl_w, bgl_off, nx, nw, piece, out):  # pragma: no cover
-    """Σ_e J_e S_e(x_i) + Σ_boundary D_e(x_i) for every point x_i.
+    """Σ_e J_e S_e(x_i) + Σ_boundary D_e(x_i) for every point x_i and every
+    right-hand side r (the kernel values are computed once for all of them).
 
-    x (n, 2) points (never on an edge); edata (m, 8) per edge: ends a, b
-    (4 columns), midpoint (2), 1/|e|², J_e |e| with J_e the jump of the
-    normal derivative; ba, bb (mb, 2) boundary edges oriented with Ω on the
-    left, bu (mb, 2) the values of u at their ends; logl0 = log ℓ₀; near:
-    sinh rule where |x − m_e| < near |e|; ratios (L,) increasing distance
-    ratios at which the Gauss levels 1..L start (level 0 from ``near``),
-    gl_x/gl_w concatenated Gauss rules on [0, 1] of levels 0..L with offsets
-    gl_off (L+2,); bratios, bgl_x, bgl_w, bgl_off the same for the boundary
-    (double layer) edges; nx, nw the Gauss rule on [0, 1] of the sinh
-    pieces of length ≤ piece.  A single-layer level without Gauss points
-    (gl_off[l] == gl_off[l+1]) means the midpoint rule with its analytic
-    second-order correction (one kernel evaluation per edge).  out (n,)
-    receives the sum, without the factor c_{2,s}/(2s).
+    x (n, 2) points (never on an edge); edata (m, 7) per edge: ends a, b
+    (4 columns), midpoint (2), 1/|e|²; coef (m, K): J_e |e| of right-hand
+    side r in column r, J_e the jump of the normal derivative; ba, bb (mb, 2)
+    boundary edges oriented with Ω on the left, bu (mb, 2, K) the values of u
+    at their ends; logl0 = log ℓ₀; near: sinh rule where |x − m_e| < near |e|;
+    ratios (L,) increasing distance ratios at which the Gauss levels 1..L
+    start (level 0 from ``near``), gl_x/gl_w concatenated Gauss rules on
+    [0, 1] of levels 0..L with offsets gl_off (L+2,); bratios, bgl_x, bgl_w,
+    bgl_off the same for the boundary (double layer) edges; nx, nw the Gauss
+    rule on [0, 1] of the sinh pieces of length ≤ piece.  A single-layer
+    level without Gauss points (gl_off[l] == gl_off[l+1]) means the midpoint
+    rule with its analytic second-order correction (one kernel evaluation per
+    edge).  out (n, K) receives the sums, without the factor c_{2,s}/(2s).
     """
     n = x.shape[0]
+    nr = coef.shape[1]
     near2 = near * near
     rat2 = ratios * ratios
     brat2 = bratios * bratios
     l0s = np.exp(-2.0 * s * logl0)
     for i in prange(n):
-        acc = 0.0
+        acc = np.zeros(nr)
         for e in range(edata.shape[0]):
-            acc += single_term(x[i, 0], x[i, 1], edata, e, s, logl0, l0s, near2, rat2, gl_x,
-                               gl_w, gl_off, nx, nw, piece)
+            w = single_weight(x[i, 0], x[i, 1], edata, e, s, logl0, l0s, near2, rat2, gl_x,
+                              gl_w, gl_off, nx, nw, piece)
+            for r in range(nr):
+                acc[r] += coef[e, r] * w
         for e in range(ba.shape[0]):
-            acc += double_term(x[i, 0], x[i, 1], ba, bb, bu, e, s, near2, brat2, bgl_x,
-                               bgl_w, bgl_off, nx, nw, piece)
-        out[i] = acc
+            wa, wb = double_weights(x[i, 0], x[i, 1], ba, bb, e, s, near2, brat2, bgl_x,
+                                    bgl_w, bgl_off, nx, nw, piece)
+            for r in range(nr):
+                acc[r] += wa * bu[e, 0, r] + wb * bu[e, 1, r]
+        for r in range(nr):
+            out[i, r] = acc[r]
 
 
 @njit(cache=True, parallel=True)
 def riesz_near(x, tperm, tstart, tend, rows, ptr, cols, sstart, send, src_g, nsrc, layer,
-               edata, ba, bb, bu, s, logl0, near, ratios, gl_x, gl_w, gl_off, bratios,
+               edata, coef, ba, bb, bu, s, logl0, near, ratios, gl_x, gl_w, gl_off, bratios,
                bgl_x, bgl_w, bgl_off, nx, nw, piece, out):  # pragma: no cover
-    """out[i] += the near-block share of one layer at x_i (layer 0: single
-    layer over ``edata``, 1: double layer over ``ba, bb, bu``; arguments as in
-    :func:`riesz_edges`).
+    """out[i, r] += the near-block share of one layer at x_i for right-hand
+    side r (layer 0: single layer over ``edata, coef``, 1: double layer over
+    ``ba, bb, bu``; arguments as in :func:`riesz_edges`).
 
     The sources of the far field are the points of each edge's rule of the
     farthest distance class, ``nsrc`` per edge (one midpoint where that rule
@@ -252,6 +262,7 @@ def riesz_near(x, tperm, tstart, tend, rows, ptr, cols, sstart, send, src_g, nsr
     clusters (rows) in parallel: every point lies in one leaf, so no two
     threads write the same entry.
     """
+    nr = out.shape[1]
     near2 = near * near
     rat2 = ratios * ratios
     brat2 = bratios * bratios
@@ -264,11 +275,13 @@ def riesz_near(x, tperm, tstart, tend, rows, ptr, cols, sstart, send, src_g, nsr
     ex = -1.0 - s
     for ri in prange(rows.shape[0]):
         tl = rows[ri]
+        acc = np.empty(nr)
         for k in range(tstart[tl], tend[tl]):
             i = tperm[k]
             x0 = x[i, 0]
             x1 = x[i, 1]
-            acc = 0.0
+            for r in range(nr):
+                acc[r] = 0.0
             for bi in range(ptr[ri], ptr[ri + 1]):
                 for e in range(sstart[cols[bi]], send[cols[bi]]):
                     if layer == 0:
@@ -279,11 +292,15 @@ def riesz_near(x, tperm, tstart, tend, rows, ptr, cols, sstart, send, src_g, nsr
                                 g = goff + src_g[e]
                                 yx = edata[e, 0] + gl_x[g] * (edata[e, 2] - edata[e, 0]) - x0
                                 yy = edata[e, 1] + gl_x[g] * (edata[e, 3] - edata[e, 1]) - x1
-                                acc += edata[e, 7] * gl_w[g] * (
-                                    np.exp(-s * np.log(yx * yx + yy * yy)) - l0s) / s2
+                                w = gl_w[g] * (np.exp(-s * np.log(yx * yx + yy * yy))
+                                               - l0s) / s2
+                                for r in range(nr):
+                                    acc[r] += coef[e, r] * w
                                 continue
-                        acc += single_term(x0, x1, edata, e, s, logl0, l0s, near2, rat2,
-                                           gl_x, gl_w, gl_off, nx, nw, piece) / nsrc
+                        w = single_weight(x0, x1, edata, e, s, logl0, l0s, near2, rat2,
+                                          gl_x, gl_w, gl_off, nx, nw, piece) / nsrc
+                        for r in range(nr):
+                            acc[r] += coef[e, r] * w
                     else:
                         tx = bb[e, 0] - ba[e, 0]
                         ty = bb[e, 1] - ba[e, 1]
@@ -293,10 +310,14 @@ def riesz_near(x, tperm, tstart, tend, rows, ptr, cols, sstart, send, src_g, nsr
                             g = bgoff + src_g[e]
                             yx = ba[e, 0] + bgl_x[g] * tx - x0
                             yy = ba[e, 1] + bgl_x[g] * ty - x1
-                            uu = bu[e, 0] + bgl_x[g] * (bu[e, 1] - bu[e, 0])
-                            acc += bgl_w[g] * uu * (yx * ty - yy * tx) * (
-                                yx * yx + yy * yy) ** ex
+                            w = bgl_w[g] * (yx * ty - yy * tx) * (yx * yx + yy * yy) ** ex
+                            xg = bgl_x[g]
+                            for r in range(nr):
+                                acc[r] += w * (bu[e, 0, r] + xg * (bu[e, 1, r] - bu[e, 0, r]))
                             continue
-                        acc += double_term(x0, x1, ba, bb, bu, e, s, near2, brat2, bgl_x,
-                                           bgl_w, bgl_off, nx, nw, piece) / nsrc
-            out[i] += acc
+                        wa, wb = double_weights(x0, x1, ba, bb, e, s, near2, brat2, bgl_x,
+                                                bgl_w, bgl_off, nx, nw, piece)
+                        for r in range(nr):
+                            acc[r] += (wa * bu[e, 0, r] + wb * bu[e, 1, r]) / nsrc
+            for r in range(nr):
+                out[i, r] += acc[r]

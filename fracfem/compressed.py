@@ -303,7 +303,7 @@ class CompressedKappa:
         ts = cluster_tree(self.points, self.ln, self.leaf_size, root)
         far, near = block_tree(tt, ts, self.eta, KAPPA_RATIO)
         out = far_values(tt, ts, far, x, self.points, self.order, -1.0 - self.s, self.src,
-                         comps=(0, 1)) / (2.0 * self.s)
+                         comps=(0, 1))[:, 0] / (2.0 * self.s)
         rows, ptr, cols = near_lists(near)
         hk.kappa_near(x, tt["perm"], tt["start"], ptr, rows, cols, tt["end"], ts["perm"],
                       ts["start"], ts["end"], self.src_edge, self.src_g, self.edges, self.s,
@@ -326,14 +326,15 @@ def far_values(tt: dict, ts: dict, far: np.ndarray, x: np.ndarray, points: np.nd
     """Σ over the admissible blocks (targets x of tt, sources ``points`` of ts)
     of Σ_j src[c, j] k_c(y_j − x_i), one kernel k_c per entry c of ``comps``
     (see :func:`fracfem._h2_kernels.coupling_matrices`) and src (len(comps),
-    n_sources, 1, 6) source functionals; returns (n_targets,) values.
+    n_sources, nrhs, 6) source functionals (nrhs right-hand sides); returns
+    (n_targets, nrhs) values.
 
     Used once, the coupling matrices are never all held: they are made for
     one kernel and one batch of block geometries at a time, at most
     ``batch_bytes`` (default ``FAR_BATCH_BYTES``) of them, and dropped after
     their products.  The sums are those of the stored path up to the order
     of summation (tested)."""
-    out = np.zeros(len(x))
+    out = np.zeros((len(x), src.shape[2]))
     if not len(far):
         return out
     batch_bytes = FAR_BATCH_BYTES if batch_bytes is None else int(batch_bytes)
@@ -344,7 +345,7 @@ def far_values(tt: dict, ts: dict, far: np.ndarray, x: np.ndarray, points: np.nd
                     comps=comps, logl0=logl0, lazy=True)
     per = max(1, batch_bytes // (8 * len(z) ** 4))
     for c, comp in enumerate(comps):
-        out += _far_pass(f, src[c], nder=1, lazy=(comp, per))[:, 0, 0]
+        out += _far_pass(f, src[c], nder=1, lazy=(comp, per))[:, :, 0]
     return out
 
 

@@ -84,7 +84,8 @@ from .assembly import mesh_arrays
 from .compressed import DEFAULT_TOL
 from .exact import check_s
 from .meshes import validates
-from .pointwise import PointwiseOptions, check_method, fractional_laplacian_qp
+from .pointwise import (PointwiseOptions, check_method, fractional_laplacian_qp,
+                        quadrature_points)
 from .quadrature import triangle_rule
 
 __all__ = [
@@ -213,7 +214,8 @@ def _check_p(p):
 @validates("fine")
 def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
                         p: float = 2.0, options: PointwiseOptions | None = None,
-                        rh_extra=None, method: str = "auto", tol: float = DEFAULT_TOL):
+                        rh_extra=None, method: str = "auto", tol: float = DEFAULT_TOL,
+                        _lap=None):
     """Node terms η_i² of Lemma 5.22 and their element shares.
 
     Returns a dict with
@@ -230,6 +232,9 @@ def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
     −(u^k − u^{k−1})/τ for the parabolic residual f − ∂_tU − (−Δ)ˢu (Theorem 6.18).
     ``options``, ``method`` ("dense", "compressed" or "auto") and ``tol`` choose
     how (−Δ)ˢu_h is evaluated (:func:`fracfem.pointwise.fractional_laplacian_at`).
+    ``_lap`` (internal): (−Δ)ˢu_h at those points, already evaluated for this
+    ``u`` (one column of a batched :func:`fracfem.pointwise.fractional_laplacian_qp`,
+    see :func:`fracfem.spacetime_estimators.steps_indicators`).
     """
     s = check_s(s)
     order = _check_order(order)
@@ -241,8 +246,15 @@ def node_residual_terms(fine, u, s, f, lam_fine=None, *, order: int = 4,
     X, _ = triangle_rule(order)
     bary = np.column_stack([1.0 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])  # (nq, 3)
     t0 = time.perf_counter()
-    lap, pts, wts = fractional_laplacian_qp(fine, u, s, order, options=options,
-                                            method=method, tol=tol)
+    if _lap is None:
+        lap, pts, wts = fractional_laplacian_qp(fine, u, s, order, options=options,
+                                                method=method, tol=tol)
+    else:
+        pts, wts, _ = quadrature_points(fine, order)
+        lap = np.asarray(_lap, dtype=float)
+        if lap.shape != wts.shape:
+            raise ValueError(f"_lap must have shape {wts.shape} (elements × quadrature "
+                             f"points), got {lap.shape}")
     x = np.moveaxis(pts, -1, 0)                                        # (2, Nt, nq)
     fx = np.broadcast_to(np.asarray(f(x) if callable(f) else f, dtype=float), lap.shape)
     if not np.all(np.isfinite(fx)):
@@ -286,7 +298,7 @@ def residual_indicators(fine, u, s, f, lam_fine=None, contact_nodes=None, order:
                         *, p: float = 2.0, localisation: str = "patch",
                         boundary: bool = False, options: PointwiseOptions | None = None,
                         full_output: bool = False, rh_extra=None, method: str = "auto",
-                        tol: float = DEFAULT_TOL):
+                        tol: float = DEFAULT_TOL, _lap=None):
     """The residual part of η(Δ)² (Section 7) on every fine element Δ.
 
     η(Δ)² = Σ_{i vertex of Δ, i interior, i ∉ C_h}
@@ -325,7 +337,7 @@ def residual_indicators(fine, u, s, f, lam_fine=None, contact_nodes=None, order:
     if localisation not in LOCALISATIONS:
         raise ValueError(f"localisation={localisation!r} must be one of {LOCALISATIONS}")
     res = node_residual_terms(fine, u, s, f, lam_fine, order=order, p=p, options=options,
-                              rh_extra=rh_extra, method=method, tol=tol)
+                              rh_extra=rh_extra, method=method, tol=tol, _lap=_lap)
     nv = fine.p.shape[1]
     admitted = np.zeros(nv, dtype=bool)
     admitted[np.asarray(fine.interior_nodes(), dtype=np.int64)] = True
@@ -442,7 +454,7 @@ def _problem_f(obj, f):
 def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
              p: float = 2.0, localisation: str = "patch", boundary: bool = False,
              options: PointwiseOptions | None = None, rh_extra=None,
-             method: str = "auto", tol: float = DEFAULT_TOL) -> dict:
+             method: str = "auto", tol: float = DEFAULT_TOL, _lap=None) -> dict:
     """Indicators of Algorithm B for a :class:`fracfem.vi.MixedProblem`.
 
     η(Δ)² = (residual term of :func:`residual_indicators`)
@@ -496,7 +508,7 @@ def estimate(prob, u, lam, order: int = 4, *, f=None, contact_nodes=None,
                                         order, p=p, localisation=localisation,
                                         boundary=boundary, options=options,
                                         full_output=True, rh_extra=rh_extra,
-                                        method=method, tol=tol)
+                                        method=method, tol=tol, _lap=_lap)
     t1 = time.perf_counter()
     ct = contact_terms(prob, u, lam)
     # round-off can leave Lemma 5.21 terms at −1e−17; they are ≥ 0 in exact arithmetic

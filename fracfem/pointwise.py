@@ -171,26 +171,31 @@ class PointwiseOptions:
                        boundary_points=tuple(2 * n for n in self.boundary_points))
 
 
-def _check_u(u, nv):
+def _check_u(u, nv, batch=False):
+    """u (nv,), or with ``batch`` also (nv, K) (K ≥ 1 functions, one per column)."""
     u = np.asarray(u, dtype=np.float64)
-    if u.shape != (nv,):
-        raise ValueError(f"u must have shape ({nv},) (one value per mesh node), "
+    if not (u.shape == (nv,) or (batch and u.ndim == 2 and u.shape[0] == nv
+                                 and u.shape[1] >= 1)):
+        allowed = f"({nv},) or ({nv}, K)" if batch else f"({nv},)"
+        raise ValueError(f"u must have shape {allowed} (one value per mesh node), "
                          f"got {u.shape}")
     if not np.all(np.isfinite(u)):
-        raise ValueError(f"u has non-finite values at nodes "
-                         f"{np.flatnonzero(~np.isfinite(u))[:5].tolist()}")
+        bad = np.flatnonzero(~np.all(np.isfinite(u.reshape(nv, -1)), axis=1))
+        raise ValueError(f"u has non-finite values at nodes {bad[:5].tolist()}")
     return np.ascontiguousarray(u)
 
 
 def _gradients(p, t, u):
-    """Element gradients (Nt, 2) of the P1 function u and signed 2|T|."""
+    """Element gradients (Nt, 2[, K]) of the P1 function(s) u ((Nv,) or (Nv, K))
+    and signed 2|T|."""
     v = p[t]
     e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
     det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     du1, du2 = u[t[:, 1]] - u[t[:, 0]], u[t[:, 2]] - u[t[:, 0]]
-    g = np.column_stack([du1 * e2[:, 1] - du2 * e1[:, 1],
-                         e1[:, 0] * du2 - e2[:, 0] * du1]) / det[:, None]
-    return g, det
+    col = (slice(None),) + (None,) * (u.ndim - 1)     # broadcast over the K columns
+    g = np.stack([du1 * e2[:, 1][col] - du2 * e1[:, 1][col],
+                  e1[:, 0][col] * du2 - e2[:, 0][col] * du1], axis=1)
+    return g / det.reshape((-1,) + (1,) * (g.ndim - 1)), det
 
 
 def normal_derivative_jumps(mesh, u):
@@ -206,14 +211,17 @@ def normal_derivative_jumps(mesh, u):
 
 
 def _jumps(p, t, u):
+    """As :func:`normal_derivative_jumps`, J (m,) or (m, K) for u (Nv,) or (Nv, K),
+    and the boundary edges oriented with Ω on the left."""
     g, det = _gradients(p, t, u)
-    sgn = np.sign(det)
+    col = (slice(None),) + (None,) * (u.ndim - 1)
+    sgn = np.sign(det)[col]
     nodes, flux = [], []
     for k in range(3):
         a, b = t[:, (k + 1) % 3], t[:, (k + 2) % 3]
         tv = p[b] - p[a]
         # right-hand normal (ty, −tx) is outward for a counter-clockwise T
-        flux.append(sgn * (g[:, 0] * tv[:, 1] - g[:, 1] * tv[:, 0]))   # ∂_n u |e|
+        flux.append(sgn * (g[:, 0] * tv[:, 1][col] - g[:, 1] * tv[:, 0][col]))  # ∂_n u |e|
         nodes.append(np.column_stack([a, b]))
     nodes, flux = np.vstack(nodes), np.concatenate(flux)
     # orient every local edge with Ω (its element) on the left
@@ -224,7 +232,11 @@ def _jumps(p, t, u):
                                       return_inverse=True, return_counts=True)
     inv = inv.ravel()
     lengths = np.linalg.norm(p[uniq[:, 1]] - p[uniq[:, 0]], axis=1)
-    J = np.bincount(inv, weights=flux, minlength=len(uniq)) / lengths
+    if flux.ndim == 1:
+        J = np.bincount(inv, weights=flux, minlength=len(uniq)) / lengths
+    else:
+        J = np.column_stack([np.bincount(inv, weights=flux[:, r], minlength=len(uniq))
+                             for r in range(flux.shape[1])]) / lengths[:, None]
     boundary = cnt == 1
     return uniq, J, boundary, oriented[first[boundary]]
 
@@ -290,7 +302,12 @@ def fractional_laplacian_at(mesh, u, points, elements, s, *,
     u : (Nv,) nodal values over all mesh nodes; u_h is extended by zero
         outside Ω (normally u = 0 on ∂Ω; nonzero boundary values are allowed
         and mean a jump of u_h across ∂Ω — then the values blow up like
-        dist(x, ∂Ω)^(−2s) towards ∂Ω)
+        dist(x, ∂Ω)^(−2s) towards ∂Ω).  Or (Nv, K): K functions at once, e.g.
+        the time steps of one mesh; the kernel values, trees and near-field
+        rules are then computed once for all of them (the cost grows far more
+        slowly than K), and the result is (N, K), column r that of u[:, r]
+        alone (to round-off where every column has the same edges with J_e ≠ 0,
+        else — other source trees — to the compressed path's tolerance).
     points : (N, 2) coordinates (rows are points; note scikit-fem's (2, N)
         convention is *not* accepted, pass ``x.T``)
     elements : (N,) index of the element containing each point; every point
@@ -307,49 +324,50 @@ def fractional_laplacian_at(mesh, u, points, elements, s, *,
 
     Returns
     -------
-    (N,) values of (−Δ)^s u_h, including the constant c_{2,s}.
+    (N,) values of (−Δ)^s u_h, including the constant c_{2,s} ((N, K) for u
+    of shape (Nv, K)).
     """
     s = check_s(s)
     method, tol = check_method(method, tol)
     opt = options or PointwiseOptions()
     p, t = mesh_arrays(mesh)
-    u = _check_u(u, len(p))
+    u = _check_u(u, len(p), batch=True)
     x, _ = _check_points(p, t, points, elements)
-    out = np.zeros(len(x))
-    if len(x) == 0:
-        return out
-    edges, J, boundary, bnodes = _jumps(p, t, u)
-    keep = J != 0.0
-    a, b = p[edges[keep, 0]], p[edges[keep, 1]]
-    l2 = np.sum((b - a) ** 2, axis=1)
-    edata = np.ascontiguousarray(np.column_stack(
-        [a, b, 0.5 * (a + b), 1.0 / l2, J[keep] * np.sqrt(l2)]))
-    bu = u[bnodes]
-    bkeep = np.any(bu != 0.0, axis=1)
-    ba = np.ascontiguousarray(p[bnodes[bkeep, 0]])
-    bb = np.ascontiguousarray(p[bnodes[bkeep, 1]])
-    bu = np.ascontiguousarray(bu[bkeep])
-    ell0 = float(np.linalg.norm(np.ptp(p, axis=0)))
-    if method == "auto":
-        pairs = float(len(x)) * (len(edata) + len(ba))
-        method = "compressed" if pairs >= AUTO_PAIRS else "dense"
-    if method == "dense":
-        _pk.riesz_edges(x, *_kernel_args(edata, ba, bb, bu, s, ell0, opt), out)
-    else:
-        _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out)
-    out *= c2s(s) / (2.0 * s)
-    if not np.all(np.isfinite(out)):
-        raise FloatingPointError("non-finite values of (−Δ)^s u_h; are the points "
-                                 "too close to an edge?")
-    return out
+    U = u.reshape(len(p), -1)                          # (Nv, K)
+    out = np.zeros((len(x), U.shape[1]))
+    if len(x):
+        edges, J, boundary, bnodes = _jumps(p, t, U)
+        keep = np.any(J != 0.0, axis=1)
+        a, b = p[edges[keep, 0]], p[edges[keep, 1]]
+        l2 = np.sum((b - a) ** 2, axis=1)
+        edata = np.ascontiguousarray(np.column_stack([a, b, 0.5 * (a + b), 1.0 / l2]))
+        coef = np.ascontiguousarray(J[keep] * np.sqrt(l2)[:, None])       # J_e |e|
+        bu = U[bnodes]                                                  # (mb, 2, K)
+        bkeep = np.any(bu != 0.0, axis=(1, 2))
+        ba = np.ascontiguousarray(p[bnodes[bkeep, 0]])
+        bb = np.ascontiguousarray(p[bnodes[bkeep, 1]])
+        bu = np.ascontiguousarray(bu[bkeep])
+        ell0 = float(np.linalg.norm(np.ptp(p, axis=0)))
+        if method == "auto":
+            pairs = float(len(x)) * (len(edata) + len(ba))
+            method = "compressed" if pairs >= AUTO_PAIRS else "dense"
+        if method == "dense":
+            _pk.riesz_edges(x, *_kernel_args(edata, coef, ba, bb, bu, s, ell0, opt), out)
+        else:
+            _riesz_compressed(x, edata, coef, ba, bb, bu, s, ell0, opt, tol, out)
+        out *= c2s(s) / (2.0 * s)
+        if not np.all(np.isfinite(out)):
+            raise FloatingPointError("non-finite values of (−Δ)^s u_h; are the points "
+                                     "too close to an edge?")
+    return out if u.ndim == 2 else out[:, 0]
 
 
-def _kernel_args(edata, ba, bb, bu, s, ell0, opt):
+def _kernel_args(edata, coef, ba, bb, bu, s, ell0, opt):
     """The arguments after x of :func:`fracfem._pointwise_kernels.riesz_edges`."""
     ratios, gx, gw, goff = _rules(opt.ratios, opt.points)
     bratios, bgx, bgw, bgoff = _rules(opt.boundary_ratios, opt.boundary_points)
     nx, nw = gauss01(int(opt.near_points))
-    return (edata, ba, bb, bu, s, np.log(ell0), float(opt.near), ratios, gx, gw, goff,
+    return (edata, coef, ba, bb, bu, s, np.log(ell0), float(opt.near), ratios, gx, gw, goff,
             bratios, bgx, bgw, bgoff, nx, nw, float(opt.piece))
 
 
@@ -364,7 +382,7 @@ def _sources(a, b, n):
             np.repeat(np.arange(k, dtype=np.int64), ne), np.repeat(w, ne))
 
 
-def _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out):
+def _riesz_compressed(x, edata, coef, ba, bb, bu, s, ell0, opt, tol, out):
     """The sum of :func:`fracfem._pointwise_kernels.riesz_edges` with the far
     field compressed.
 
@@ -395,8 +413,9 @@ def _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out):
     if not opt.boundary_ratios:
         opt = replace(opt, boundary_ratios=(opt.near,),
                       boundary_points=2 * tuple(opt.boundary_points))
-    args = _kernel_args(edata, ba, bb, bu, s, ell0, opt)
-    logl0 = args[5]
+    args = _kernel_args(edata, coef, ba, bb, bu, s, ell0, opt)
+    logl0 = args[6]
+    nr = coef.shape[1]
     root = square_around(x, edata[:, :2], edata[:, 2:4], ba, bb)
     tt = cluster_tree(x, np.zeros(len(x)), TARGET_LEAF, root)
     layers = []
@@ -404,12 +423,12 @@ def _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out):
         a, b = edata[:, :2], edata[:, 2:4]
         n = int(opt.points[-1])
         pts, sedge, sg, w = _sources(a, b, n)
-        src = np.zeros((1, len(pts), 1, 6))
-        src[0, :, 0, 0] = edata[sedge, 7] * w
+        src = np.zeros((1, len(pts), nr, 6))
+        src[0, :, :, 0] = coef[sedge] * w[:, None]
         if n == 0:      # |e|²/24 τ τᵀ: the second-order term of the midpoint rule
             tv = b - a
-            src[0, :, 0, 3:6] = (edata[:, 7] / 24.0)[:, None] * np.column_stack(
-                [tv[:, 0] ** 2, tv[:, 0] * tv[:, 1], tv[:, 1] ** 2])
+            src[0, :, :, 3:6] = (coef / 24.0)[:, :, None] * np.column_stack(
+                [tv[:, 0] ** 2, tv[:, 0] * tv[:, 1], tv[:, 1] ** 2])[:, None, :]
         # the farthest class starts at this distance ratio from the midpoint
         ratio = max(opt.ratios[-1], opt.near) + (0.5 if n else 0.0)
         layers.append((0, pts, sedge, sg, max(n, 1), np.sqrt(1.0 / edata[sedge, 6]), ratio,
@@ -419,10 +438,10 @@ def _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out):
         pts, sedge, sg, w = _sources(ba, bb, n)
         tv = (bb - ba)[sedge]
         xg = gauss01(n)[0][sg]
-        wu = w * (bu[sedge, 0] + xg * (bu[sedge, 1] - bu[sedge, 0]))
-        src = np.zeros((2, len(pts), 1, 6))
-        src[0, :, 0, 0] = wu * tv[:, 1]
-        src[1, :, 0, 0] = -wu * tv[:, 0]
+        wu = w[:, None] * (bu[sedge, 0] + xg[:, None] * (bu[sedge, 1] - bu[sedge, 0]))
+        src = np.zeros((2, len(pts), nr, 6))
+        src[0, :, :, 0] = wu * tv[:, 1, None]
+        src[1, :, :, 0] = -wu * tv[:, 0, None]
         ratio = max(opt.boundary_ratios[-1], opt.near) + 0.5
         layers.append((1, pts, sedge, sg, n, np.linalg.norm(tv, axis=1), ratio, src,
                        (0, 1), -1.0 - s))
@@ -437,14 +456,14 @@ def _riesz_compressed(x, edata, ba, bb, bu, s, ell0, opt, tol, out):
         rows, ptr, cols = near_lists(near)
         # one row of edge data per source, in source-tree order
         rowof = sedge[ts["perm"]]
-        edge_args = list(args[:4])
+        edge_args = list(args[:5])
         if layer == 0:
-            edge_args[0] = np.ascontiguousarray(edata[rowof])
+            edge_args[0:2] = [np.ascontiguousarray(v[rowof]) for v in (edata, coef)]
         else:
-            edge_args[1:4] = [np.ascontiguousarray(v[rowof]) for v in (ba, bb, bu)]
+            edge_args[2:5] = [np.ascontiguousarray(v[rowof]) for v in (ba, bb, bu)]
         _pk.riesz_near(x, tt["perm"], tt["start"], tt["end"], rows, ptr, cols, ts["start"],
                        ts["end"], np.ascontiguousarray(sg[ts["perm"]]), nsrc, layer,
-                       *edge_args, *args[4:], out)
+                       *edge_args, *args[5:], out)
         tim["trees"] += t2 - t1
         tim["far"] += t3 - t2
         tim["near"] += time.perf_counter() - t3
@@ -474,8 +493,9 @@ def fractional_laplacian_qp(mesh, u, s, order: int, *,
 
     Returns (values (Nt, nq), points (Nt, nq, 2), weights (Nt, nq)); the
     weights are physical (Σ_q weights[T, q] = |T|), so that
-    Σ weights·values·φ approximates ∫_Ω (−Δ)^s u_h φ.  ``options``,
-    ``method`` and ``tol`` as in :func:`fractional_laplacian_at`.
+    Σ weights·values·φ approximates ∫_Ω (−Δ)^s u_h φ.  ``u`` (Nv,) or (Nv, K)
+    (then values (Nt, nq, K)), ``options``, ``method`` and ``tol`` as in
+    :func:`fractional_laplacian_at`.
     """
     s = check_s(s)
     check_method(method, tol)
@@ -484,4 +504,4 @@ def fractional_laplacian_qp(mesh, u, s, order: int, *,
     el = np.repeat(np.arange(nt), nq)
     vals = fractional_laplacian_at(mesh, u, pts.reshape(-1, 2), el, s, options=options,
                                    method=method, tol=tol)
-    return vals.reshape(nt, nq), pts, wts
+    return vals.reshape((nt, nq) + vals.shape[1:]), pts, wts

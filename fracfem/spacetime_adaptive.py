@@ -30,7 +30,7 @@ from .adaptive import MARKINGS, _check_theta
 from .meshes import element_diameters, refine_disk
 from .parabolic import (Source, Stepper, _check_solver, _is_real, _positive,
                         _positive_int, time_steps)
-from .spacetime_estimators import initial_indicators, step_indicators
+from .spacetime_estimators import BATCH_STEPS, initial_indicators, steps_indicators
 from .stepsize import time_step
 from .transfer import transfer
 from .vi import MixedProblem
@@ -184,22 +184,29 @@ class _SolveEstimate:
                          solver_options=run.solver_options,
                          time_quadrature=run.time_quadrature)
         prev = None
+        pending = []                  # solved steps k ≥ 1 awaiting their indicators
         while True:
             t0 = time.perf_counter()
             step = next(gen, None)
             self.timings["solve"] += time.perf_counter() - t0
+            t0 = time.perf_counter()
+            if step is not None and step.k == 0:
+                if j == 0:
+                    fine = self._initial(j, slab, st, step, tot)
+                    eta2 += np.bincount(par, fine, minlength=len(eta2))
+            elif step is not None:
+                pending.append(step)
+            if pending and (step is None or len(pending) == BATCH_STEPS):
+                # the steps' (−Δ)ˢu^k in one batched evaluation (steps_indicators)
+                for fine in self._steps(j, st, prev, pending, times, tot):
+                    eta2 += np.bincount(par, fine, minlength=len(eta2))
+                prev = pending[-1]
+                pending = []
+            elif step is not None and step.k == 0:
+                prev = step
+            self.timings["estimate"] += time.perf_counter() - t0
             if step is None:
                 break
-            t0 = time.perf_counter()
-            fine = None
-            if step.k > 0:
-                fine = self._step(j, st, prev, step, float(times[step.k - 1]), tot)
-            elif j == 0:
-                fine = self._initial(j, slab, st, step, tot)
-            if fine is not None:
-                eta2 += np.bincount(par, fine, minlength=len(eta2))
-            self.timings["estimate"] += time.perf_counter() - t0
-            prev = step
         tot["total"] = sum(tot.values())
         logger.debug("slab %d [%g, %g]: %d steps of τ = %.4g, %d DOFs, squared indicator "
                      "%.4e", j, slab.a, slab.b, slab.n_steps, slab.tau, slab.n_free,
@@ -219,11 +226,18 @@ class _SolveEstimate:
                 self.snaps[t_out] = _snapshot(t_out, step, j, st)
         return ini["eta2_fine"]
 
-    def _step(self, j, st, prev, step, t_prev, tot) -> np.ndarray:
-        """Indicators of step k ≥ 1 per fine element; its row, contact set, snapshots."""
+    def _steps(self, j, st, prev, steps, times, tot) -> Iterator[np.ndarray]:
+        """Indicators of consecutive steps k ≥ 1 (after ``prev``) per fine element."""
+        run = self.run
+        inds = steps_indicators(st, prev.u, steps, f=run.source, order=run.order,
+                                time_quadrature=run.time_quadrature, **run.est_opts)
+        for step, ind in zip(steps, inds):
+            yield self._step(j, st, step, ind, float(times[step.k - 1]), tot)
+
+    def _step(self, j, st, step, ind, t_prev, tot) -> np.ndarray:
+        """Step k ≥ 1 with its indicators ``ind``: its row, contact set, snapshots;
+        returns the indicators per fine element."""
         run, rows = self.run, self.rows
-        ind = step_indicators(st, prev.u, step, f=run.source, order=run.order,
-                              time_quadrature=run.time_quadrature, **run.est_opts)
         for part in ("space", "time", "contact"):
             tot[part] += ind[part + "_total"]
             rows[part].append(ind[part + "_total"])

@@ -35,11 +35,16 @@ from . import estimators
 from .assembly import mesh_arrays
 from .compressed import DEFAULT_TOL
 from .parabolic import Source, TimeStep, _as_stepper, _is_real
-from .pointwise import quadrature_points
+from .pointwise import fractional_laplacian_qp, quadrature_points
+
+# steps whose (−Δ)ˢu^k are evaluated in one batched call: their cost grows far
+# more slowly than the count, the memory (Nt × nq × BATCH_STEPS values) linearly
+BATCH_STEPS = 16
 
 __all__ = [
     "initial_indicators",
     "step_indicators",
+    "steps_indicators",
     "space_time_indicators",
 ]
 
@@ -144,19 +149,65 @@ def step_indicators(problem, u_prev, step: TimeStep, *, f=0.0, f_time=None,
     ``contact_total`` (τ_k × unclipped Lemma 5.21 sum), ``total``; ``k``, ``t``,
     ``tau``; ``n_contact_nodes``; ``seconds``.
     """
+    return steps_indicators(problem, u_prev, [step], f=f, f_time=f_time, order=order,
+                            time_quadrature=time_quadrature, localisation=localisation,
+                            boundary=boundary, p=p, contact_nodes=contact_nodes,
+                            options=options, method=method, tol=tol)[0]
+
+
+def steps_indicators(problem, u_prev, steps, *, f=0.0, f_time=None, order: int = 4,
+                     time_quadrature: int = 3, localisation: str = "patch",
+                     boundary: bool = False, p: float = 2.0, contact_nodes=None,
+                     options=None, method: str = "auto", tol: float = DEFAULT_TOL) -> list:
+    """:func:`step_indicators` of consecutive steps on one mesh, in one pass.
+
+    ``steps``: TimeStep records k, k + 1, … of one run on the mesh of
+    ``problem``; ``u_prev``: u^{k−1}.  (−Δ)ˢu of all of them is evaluated in one
+    batched call (:func:`fracfem.pointwise.fractional_laplacian_qp` with one
+    column per step), which shares the kernel values, trees and near-field
+    rules among the steps; the indicators are those of :func:`step_indicators`
+    step by step (the same up to round-off, tested).  Returns one dict per step.
+    """
     _check_localisation(localisation)
     st = _as_stepper(problem)
     if st.kind not in ("obstacle", "friction", "heat"):
         raise ValueError(f"indicators support kinds 'obstacle', 'friction' and the "
                          f"unconstrained problem, got {st.kind!r}")
-    if step.k < 1:
-        raise ValueError("step_indicators needs a step k >= 1 (k = 0 has "
-                         "initial_indicators)")
+    steps = list(steps)
+    if not steps:
+        return []
+    for i, step in enumerate(steps):
+        if step.k < 1:
+            raise ValueError("step_indicators needs a step k >= 1 (k = 0 has "
+                             "initial_indicators)")
+        if i and step.k != steps[i - 1].k + 1:
+            raise ValueError(f"steps must be consecutive, got k = {steps[i - 1].k} "
+                             f"followed by k = {step.k}")
+    t0 = time.perf_counter()
+    mesh = st.mesh
+    free = st.disc.free
+    us = [estimators._check_u(mesh, step.u, free) for step in steps]
+    prevs = [estimators._check_u(mesh, u_prev, free)] + us[:-1]
+    lap, _, _ = fractional_laplacian_qp(mesh, np.column_stack(us), st.s, order,
+                                        options=options, method=method, tol=tol)
+    t_lap = (time.perf_counter() - t0) / len(steps)
+    out = []
+    for r, step in enumerate(steps):
+        row = _one_step(st, prevs[r], us[r], step, lap[..., r], f, f_time, order,
+                        time_quadrature, localisation, boundary, p, contact_nodes,
+                        options, method, tol)
+        row["seconds"] += t_lap
+        out.append(row)
+    return out
+
+
+def _one_step(st, u_prev, u, step, lap, f, f_time, order, time_quadrature, localisation,
+              boundary, p, contact_nodes, options, method, tol) -> dict:
+    """The indicators of one step from (−Δ)ˢu^k at the quadrature points (``lap``)."""
     t0 = time.perf_counter()
     mesh = st.mesh
     tau = float(step.info.get("tau_used", step.tau))
-    u = np.asarray(step.u, dtype=float)
-    du = u - np.asarray(u_prev, dtype=float)
+    du = u - u_prev
     _, T = mesh_arrays(mesh)
     _, _, bary = quadrature_points(mesh, order)
     rh_extra = -(du[T] @ bary.T) / tau
@@ -165,7 +216,7 @@ def step_indicators(problem, u_prev, step: TimeStep, *, f=0.0, f_time=None,
         res, det = estimators.residual_indicators(
             mesh, u, st.s, fbar, None, contact_nodes, order, p=p,
             localisation=localisation, boundary=boundary, options=options,
-            full_output=True, rh_extra=rh_extra, method=method, tol=tol)
+            full_output=True, rh_extra=rh_extra, method=method, tol=tol, _lap=lap)
         res_total = float(det["term"].sum())
         contact = np.zeros_like(res)
         contact_total = 0.0
@@ -176,7 +227,7 @@ def step_indicators(problem, u_prev, step: TimeStep, *, f=0.0, f_time=None,
                                   contact_nodes=contact_nodes, p=p,
                                   localisation=localisation, boundary=boundary,
                                   options=options, rh_extra=rh_extra, method=method,
-                                  tol=tol)
+                                  tol=tol, _lap=lap)
         parts = est["parts"]
         res, res_total = parts["residual_fine"], parts["residual"]
         contact = np.maximum(parts["contact"]["fine"], 0.0)
@@ -223,9 +274,9 @@ def space_time_indicators(problem, steps, u0, *, f=0.0, f_time=None, order: int 
                              localisation=kwargs.get("localisation", "patch"),
                              boundary=kwargs.get("boundary", False))
     rows = []
-    for prev, cur in zip(steps[:-1], steps[1:]):
-        rows.append(step_indicators(st, prev.u, cur, f=f, f_time=f_time, order=order,
-                                    **kwargs))
+    for i in range(1, len(steps), BATCH_STEPS):
+        rows += steps_indicators(st, steps[i - 1].u, steps[i:i + BATCH_STEPS], f=f,
+                                 f_time=f_time, order=order, **kwargs)
     out = dict(t=np.array([r["t"] for r in rows]), tau=np.array([r["tau"] for r in rows]))
     for part in ("space", "time", "contact"):
         out[part] = np.array([r[part + "_total"] for r in rows])

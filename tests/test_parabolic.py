@@ -434,6 +434,52 @@ def test_friction_indicators_and_contact_term():
     assert np.all(ind["contact"] >= -1e-15)
 
 
+@pytest.mark.parametrize("method", ["dense", "compressed"])
+def test_batched_steps_equal_one_step_at_a_time(method):
+    """steps_indicators evaluates (−Δ)ˢu^k of all its steps in one batched call;
+    every indicator equals that of step_indicators step by step (friction,
+    u₀ ≠ 0 in the first step, five steps, either evaluation path)."""
+    st = mixed_stepper("friction", 3, s=0.6)
+    steps = parabolic.solve_parabolic(st, ex5_u0, T=0.25, tau=0.05)
+    batch = spacetime_estimators.steps_indicators(st, steps[0].u, steps[1:], method=method)
+    assert len(batch) == 5
+    for prev, cur, got in zip(steps[:-1], steps[1:], batch):
+        one = spacetime_estimators.step_indicators(st, prev.u, cur, method=method)
+        assert got["k"] == cur.k and one["space_total"] > 0
+        for key in ("space", "time", "contact", "eta2_fine"):
+            np.testing.assert_allclose(got[key], one[key], rtol=1e-12,
+                                       atol=1e-13 * one[key].max(), err_msg=key)
+        for key in ("space_total", "time_total", "contact_total", "total"):
+            assert got[key] == pytest.approx(one[key], rel=1e-12, abs=1e-16), key
+    with pytest.raises(ValueError, match="consecutive, got k = 1 followed by k = 3"):
+        spacetime_estimators.steps_indicators(st, steps[0].u, [steps[1], steps[3]])
+    assert spacetime_estimators.steps_indicators(st, steps[0].u, []) == []
+
+
+def test_algorithm_c_same_with_any_estimate_batch(monkeypatch):
+    """Algorithm C estimates the steps of a slab in batches of BATCH_STEPS; one
+    step per batch (the plain order: solve a step, estimate it) gives the same
+    passes: estimators, per-step rows, marks and snapshots."""
+    def run():
+        return spacetime_adaptive.algorithm_c(_ex4_problem(), meshes.disk_uniform(1), 2.0,
+                                              T=1.0, theta=0.5, iterations=2,
+                                              output_times=(0.0, 0.4, 1.0))
+    batched = run()
+    monkeypatch.setattr(spacetime_adaptive, "BATCH_STEPS", 1)
+    single = run()
+    assert max(sl.n_steps for r in batched for sl in r.slabs) > 1   # batches of several
+    for a, b in zip(batched, single):
+        assert a.eta == pytest.approx(b.eta, rel=1e-12) and a.dofs == b.dofs
+        for key in ("t", "tau", "slab", "space", "time", "contact", "total", "n_active"):
+            np.testing.assert_allclose(a.steps[key], b.steps[key], rtol=1e-11, atol=1e-300)
+        for pa, pb in zip(a.prism_eta2, b.prism_eta2):
+            np.testing.assert_allclose(pa, pb, rtol=1e-11)
+        assert [m.tolist() for m in a.marked or []] == [m.tolist() for m in b.marked or []]
+        assert sorted(a.outputs) == sorted(b.outputs) == [0.0, 0.4, 1.0]
+        for t_out in a.outputs:
+            np.testing.assert_array_equal(a.outputs[t_out]["u"], b.outputs[t_out]["u"])
+
+
 def test_indicator_argument_checks():
     st = heat_stepper(2)
     steps = parabolic.solve_parabolic(st, 1.0, T=0.2, tau=0.1)

@@ -158,3 +158,46 @@ def test_bad_method_and_tol_refused(kw, match):
     disc = ff.discretise(m, 0.5, 1.0)
     with pytest.raises(ValueError, match=match):
         estimators.estimate_laplace(disc, u, 1.0, **kw)
+
+
+@pytest.mark.parametrize("method", ["dense", "compressed"])
+@pytest.mark.parametrize("s", [0.3, 0.5, 0.8])
+def test_batch_of_functions_equals_one_at_a_time(method, s):
+    """u of shape (Nv, K): column r equals the evaluation of u[:, r] alone, for
+    u_h vanishing on ∂Ω and not (double layer) and a zero column: with the
+    same edges (J_e ≠ 0 on all) the rules and trees are the same, so the two
+    agree to round-off.  A column whose J_e vanishes on most edges has, alone,
+    fewer sources and other trees: the compressed values then differ by the
+    compression error, checked against the dense path as elsewhere here."""
+    m = mesh("lshape")
+    cols = [random_u(m, 11, False), random_u(m, 12, True), np.zeros(m.p.shape[1])]
+    local = np.zeros(m.p.shape[1])
+    local[m.t[:, 0]] = 1.0                       # J_e ≠ 0 only near element 0
+    cols.append(local)
+    U = np.column_stack(cols)
+    batch = fractional_laplacian_qp(m, U, s, 2, method=method)[0]
+    assert batch.shape == m.t.T.shape[:1] + (triangle_points(2), len(cols))
+    for r, u in enumerate(cols[:3]):
+        one = fractional_laplacian_qp(m, u, s, 2, method=method)[0]
+        scale = max(np.abs(one).max(), 1.0)
+        assert np.abs(batch[..., r] - one).max() <= 1e-12 * scale, (r, method, s)
+    assert np.abs(batch[..., 2]).max() == 0.0
+    dense = fractional_laplacian_qp(m, local, s, 2, method="dense")[0]
+    assert rel_diff(batch[..., 3], dense) <= (1e-12 if method == "dense" else 1e-6)
+
+
+def triangle_points(order):
+    return len(ff.quadrature.triangle_rule(order)[1])
+
+
+def test_batch_shape_errors():
+    m = mesh("square")
+    nv = m.p.shape[1]
+    with pytest.raises(ValueError, match=r"u must have shape \(%d,\) or \(%d, K\)" % (nv, nv)):
+        fractional_laplacian_qp(m, np.zeros((nv, 0)), 0.5, 2)
+    with pytest.raises(ValueError, match="u must have shape"):
+        fractional_laplacian_qp(m, np.zeros((nv, 2, 1)), 0.5, 2)
+    bad = np.zeros((nv, 2))
+    bad[3, 1] = np.inf
+    with pytest.raises(ValueError, match=r"non-finite values at nodes \[3\]"):
+        fractional_laplacian_qp(m, bad, 0.5, 2)
