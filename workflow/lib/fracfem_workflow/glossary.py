@@ -292,6 +292,15 @@ GROUPS = [
         "point_edge_pairs": "points × edges: the work of the dense path",
         "speedup": "dense_s / compressed_s",
     }),
+    ("Pointwise (−Δ)ˢu_h of K functions (`benchmarks/pointwise-batch.md`)", False, {
+        "K": "functions evaluated on one mesh (columns of u)",
+        "singles_s": "seconds of K calls with one function each",
+        "batch_s": "seconds of one call with all K functions",
+        "batch_per_function_s": "batch_s / K",
+        "batch_speedup": "singles_s / batch_s",
+        "batch_rel_diff": "max over the K functions of max |batched − single| / "
+                          "max |single| over the points",
+    }),
     ("Bad input (`bad-inputs.md`)", False, {
         "parameter": "the argument at fault",
         "input": "what was passed",
