@@ -194,3 +194,24 @@ def test_parabolic_reference_copy_is_single_precision_and_keeps_what_is_used(tmp
         pieces, _ = parabolic_pieces(npz_to)
         assert len(pieces) == 3 and pieces[-1][1] == 1.0
         assert Path(row_to).read_text() == Path(row).read_text()
+
+
+def test_algorithm_c_table_rates_of_the_estimator_parts():
+    """Each part of η gets the rate of its square root over the fitted passes; a part
+    at round-off level (an obstacle run's contact term) gets none; the time share is
+    that of the finest pass."""
+    summary = script("parabolic_summary")
+    dofs = np.array([1e3, 4e3, 1.6e4, 6.4e4])
+    time2 = 0.8 * dofs ** -0.5                       # √: rate −1/4
+    space2 = 0.2 * dofs ** -1.0                      # √: rate −1/2
+    df = pd.DataFrame({"problem": "p", "family": "adaptive", "spacetime_dofs": dofs,
+                       "error": dofs ** -0.4, "eta2_time": time2, "eta2_space": space2,
+                       "eta2_contact": 1e-20, "eta2_initial": 0.0,
+                       "eta": np.sqrt(time2 + space2), "reference_error": 0.0})
+    row = summary.algorithm_c_table(df).iloc[0]
+    assert row["η_time rate (same runs)"] == pytest.approx(-0.25, abs=1e-12)
+    assert row["η_space rate (same runs)"] == pytest.approx(-0.5, abs=1e-12)
+    assert np.isnan(row["η_contact rate (same runs)"])
+    assert np.isnan(row["η_initial rate (same runs)"])
+    assert row["time share of η² (finest)"] == pytest.approx(time2[-1] / (time2[-1] + space2[-1]))
+    assert row["error rate (fitted runs)"] == pytest.approx(-0.4, abs=1e-12)

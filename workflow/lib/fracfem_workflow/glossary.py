@@ -157,6 +157,12 @@ GROUPS = [
                                     "3× `reference_error`",
         "η rate (same runs)": "rate of the estimator η over the same passes",
         "η rate (all)": "rate of η over every pass",
+        ("η_space rate (same runs)", "η_time rate (same runs)", "η_contact rate (same runs)",
+         "η_initial rate (same runs)"): "rate of one part of η over the same passes: the "
+                                        "square root of the space, time, contact or initial "
+                                        "term of η² (Theorem 6.18), summed over the run; "
+                                        "empty where the part is at round-off level",
+        "time share of η² (finest)": "the time term's share of η² in the finest pass",
         "fitted": "passes in those fits",
         "efficiency per pass": "η/error of every pass, in order",
     }),
