@@ -160,7 +160,7 @@ class _SolveEstimate:
         self.run = settings
         self.timings = dict(assemble=0.0, solve=0.0, estimate=0.0, mark=0.0, refine=0.0)
         self.rows = dict(t=[], tau=[], slab=[], space=[], time=[], contact=[], total=[],
-                         n_active=[])
+                         n_active=[], time_anorm=[])
         self.slab_totals, self.prism, self.snaps = [], [], {}
         self.first_contact = None
         self.pieces = [] if settings.keep_steps else None
@@ -242,6 +242,7 @@ class _SolveEstimate:
             tot[part] += ind[part + "_total"]
             rows[part].append(ind[part + "_total"])
         rows["total"].append(ind["total"])
+        rows["time_anorm"].append(ind["time_anorm_total"])
         rows["t"].append(step.t)
         rows["tau"].append(step.tau)
         rows["slab"].append(j)
@@ -467,7 +468,9 @@ def algorithm_c(make_problem, coarse0, u0, *, T: float, theta: float, iterations
     ``eta_parts`` (squared totals 'space', 'time', 'contact', 'initial'),
     ``steps`` (dict of arrays over all time steps in order: 't', 'tau', 'slab',
     'space', 'time', 'contact', 'total' (squared indicator totals of the step),
-    'n_active' (obstacle: multipliers with λ < 0; friction: with |λ| < F, stick)),
+    'n_active' (obstacle: multipliers with λ < 0; friction: with |λ| < F, stick),
+    'time_anorm' (τ_k a(u^k − u^{k−1}, ·): the time term in the energy norm, a
+    diagnostic outside η)),
     ``slab_totals`` (per slab dict 'space', 'time', 'contact', 'initial', 'total'),
     ``prism_eta2`` (per slab, η(j, T)² per coarse element), ``outputs`` (dict
     t_out → snapshot), ``final`` (snapshot at T), ``first_contact_time``

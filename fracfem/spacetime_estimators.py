@@ -147,7 +147,9 @@ def step_indicators(problem, u_prev, step: TimeStep, *, f=0.0, f_time=None,
     ``contact`` (τ_k × Lemma 5.21/6.20 fine share, clipped at 0), ``eta2_fine``
     (their sum); totals ``space_total`` (τ_k Σ_i η_i²), ``time_total``,
     ``contact_total`` (τ_k × unclipped Lemma 5.21 sum), ``total``; ``k``, ``t``,
-    ``tau``; ``n_contact_nodes``; ``seconds``.
+    ``tau``; ``n_contact_nodes``; ``seconds``; and, a diagnostic outside η,
+    ``time_anorm_total`` = τ_k a(u^k − u^{k−1}, u^k − u^{k−1}): the time term with the
+    energy norm that h_i^{−2s}‖·‖²_{L²} stands in for (inverse estimate).
     """
     return steps_indicators(problem, u_prev, [step], f=f, f_time=f_time, order=order,
                             time_quadrature=time_quadrature, localisation=localisation,
@@ -239,10 +241,14 @@ def _one_step(st, u_prev, u, step, lap, f, f_time, order, time_quadrature, local
                                     _admitted_mask(mesh, admitted), localisation)
     space = tau * res
     contact = tau * contact
+    du_free = du[st.free]
     out = dict(k=step.k, t=step.t, tau=tau, space=space, time=time_el, contact=contact,
                eta2_fine=space + time_el + contact,
                space_total=tau * res_total, time_total=float(time_nodes.sum()),
-               contact_total=tau * contact_total, n_contact_nodes=n_contact)
+               contact_total=tau * contact_total, n_contact_nodes=n_contact,
+               # diagnostic, not part of η: the time term with the energy norm in place of
+               # its inverse-estimate proxy Σ_i h_i^{−2s}‖·‖²_{L²(S_i)}
+               time_anorm_total=tau * float(du_free @ (st.disc.A @ du_free)))
     out["total"] = out["space_total"] + out["time_total"] + out["contact_total"]
     out["seconds"] = time.perf_counter() - t0
     return out

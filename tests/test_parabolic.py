@@ -480,6 +480,20 @@ def test_algorithm_c_same_with_any_estimate_batch(monkeypatch):
             np.testing.assert_array_equal(a.outputs[t_out]["u"], b.outputs[t_out]["u"])
 
 
+def test_time_term_in_the_energy_norm():
+    """time_anorm_total = τ a(u^k − u^{k−1}, u^k − u^{k−1}) with the problem's own
+    stiffness (a diagnostic beside η, not part of it)."""
+    st = mixed_stepper("friction", 2, s=0.6)
+    steps = parabolic.solve_parabolic(st, ex5_u0, T=0.2, tau=0.1)
+    out = spacetime_estimators.step_indicators(st, steps[0].u, steps[1])
+    du = (steps[1].u - steps[0].u)[st.free]
+    expected = 0.1 * du @ (np.asarray(st.disc.A) @ du)
+    assert expected > 0
+    assert out["time_anorm_total"] == pytest.approx(expected, rel=1e-12)
+    assert out["total"] == pytest.approx(out["space_total"] + out["time_total"]
+                                         + out["contact_total"], rel=1e-12)
+
+
 def test_indicator_argument_checks():
     st = heat_stepper(2)
     steps = parabolic.solve_parabolic(st, 1.0, T=0.2, tau=0.1)

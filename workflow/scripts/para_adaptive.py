@@ -48,6 +48,8 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
             "steps": int(sum(sl.n_steps for sl in rec.slabs)),
             "spacetime_dofs": rec.dofs, "error": err, "eta": rec.eta,
             **{f"eta2_{k}": v for k, v in rec.eta_parts.items()},
+            # the time term with the energy norm instead of its h^{−2s}‖·‖_{L²} proxy
+            "eta2_time_anorm": float(np.sum(rec.steps["time_anorm"])),
             "first_contact": (np.nan if rec.first_contact_time is None
                               else rec.first_contact_time),
             **{f"t_{k}": v for k, v in rec.timings.items()},

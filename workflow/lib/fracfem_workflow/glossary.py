@@ -163,6 +163,11 @@ GROUPS = [
                                         "term of η² (Theorem 6.18), summed over the run; "
                                         "empty where the part is at round-off level",
         "time share of η² (finest)": "the time term's share of η² in the finest pass",
+        "η_time,a rate (same runs)": "rate of √(Σ_k τ_k a(u^k − u^{k−1}, u^k − u^{k−1})), "
+                                     "the time term in the energy norm, over the same passes",
+        "η_a rate (same runs)": "rate of η_a, η with that time term in place of its "
+                                "h^{−2s}‖·‖²_{L²} form, over the same passes",
+        "η_a efficiency per pass": "η_a / error of every pass",
         "fitted": "passes in those fits",
         "efficiency per pass": "η/error of every pass, in order",
     }),
