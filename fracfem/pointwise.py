@@ -185,17 +185,15 @@ def _check_u(u, nv, batch=False):
     return np.ascontiguousarray(u)
 
 
-def _gradients(p, t, u):
-    """Element gradients (Nt, 2[, K]) of the P1 function(s) u ((Nv,) or (Nv, K))
-    and signed 2|T|."""
+def _gradients(p, t, U):
+    """Element gradients (Nt, 2, K) of the P1 functions U (Nv, K) and signed 2|T|."""
     v = p[t]
     e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
     det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    du1, du2 = u[t[:, 1]] - u[t[:, 0]], u[t[:, 2]] - u[t[:, 0]]
-    col = (slice(None),) + (None,) * (u.ndim - 1)     # broadcast over the K columns
-    g = np.stack([du1 * e2[:, 1][col] - du2 * e1[:, 1][col],
-                  e1[:, 0][col] * du2 - e2[:, 0][col] * du1], axis=1)
-    return g / det.reshape((-1,) + (1,) * (g.ndim - 1)), det
+    du1, du2 = U[t[:, 1]] - U[t[:, 0]], U[t[:, 2]] - U[t[:, 0]]          # (Nt, K)
+    g = np.stack([du1 * e2[:, 1, None] - du2 * e1[:, 1, None],
+                  e1[:, 0, None] * du2 - e2[:, 0, None] * du1], axis=1)
+    return g / det[:, None, None], det
 
 
 def normal_derivative_jumps(mesh, u):
@@ -213,15 +211,14 @@ def normal_derivative_jumps(mesh, u):
 def _jumps(p, t, u):
     """As :func:`normal_derivative_jumps`, J (m,) or (m, K) for u (Nv,) or (Nv, K),
     and the boundary edges oriented with Ω on the left."""
-    g, det = _gradients(p, t, u)
-    col = (slice(None),) + (None,) * (u.ndim - 1)
-    sgn = np.sign(det)[col]
+    g, det = _gradients(p, t, u.reshape(len(p), -1))
+    sgn = np.sign(det)[:, None]
     nodes, flux = [], []
     for k in range(3):
         a, b = t[:, (k + 1) % 3], t[:, (k + 2) % 3]
         tv = p[b] - p[a]
         # right-hand normal (ty, −tx) is outward for a counter-clockwise T
-        flux.append(sgn * (g[:, 0] * tv[:, 1][col] - g[:, 1] * tv[:, 0][col]))  # ∂_n u |e|
+        flux.append(sgn * (g[:, 0] * tv[:, 1, None] - g[:, 1] * tv[:, 0, None]))  # ∂_n u |e|
         nodes.append(np.column_stack([a, b]))
     nodes, flux = np.vstack(nodes), np.concatenate(flux)
     # orient every local edge with Ω (its element) on the left
@@ -232,13 +229,10 @@ def _jumps(p, t, u):
                                       return_inverse=True, return_counts=True)
     inv = inv.ravel()
     lengths = np.linalg.norm(p[uniq[:, 1]] - p[uniq[:, 0]], axis=1)
-    if flux.ndim == 1:
-        J = np.bincount(inv, weights=flux, minlength=len(uniq)) / lengths
-    else:
-        J = np.column_stack([np.bincount(inv, weights=flux[:, r], minlength=len(uniq))
-                             for r in range(flux.shape[1])]) / lengths[:, None]
+    J = np.column_stack([np.bincount(inv, weights=flux[:, r], minlength=len(uniq))
+                         for r in range(flux.shape[1])]) / lengths[:, None]
     boundary = cnt == 1
-    return uniq, J, boundary, oriented[first[boundary]]
+    return uniq, (J if u.ndim == 2 else J[:, 0]), boundary, oriented[first[boundary]]
 
 
 def _rules(ratios, points):

@@ -190,7 +190,8 @@ class _SolveEstimate:
             step = next(gen, None)
             self.timings["solve"] += time.perf_counter() - t0
             t0 = time.perf_counter()
-            if step is not None and step.k == 0:
+            if step is not None and step.k == 0:      # the slab's start, first of all
+                prev = step
                 if j == 0:
                     fine = self._initial(j, slab, st, step, tot)
                     eta2 += np.bincount(par, fine, minlength=len(eta2))
@@ -200,10 +201,7 @@ class _SolveEstimate:
                 # the steps' (−Δ)ˢu^k in one batched evaluation (steps_indicators)
                 for fine in self._steps(j, st, prev, pending, times, tot):
                     eta2 += np.bincount(par, fine, minlength=len(eta2))
-                prev = pending[-1]
-                pending = []
-            elif step is not None and step.k == 0:
-                prev = step
+                prev, pending = pending[-1], []
             self.timings["estimate"] += time.perf_counter() - t0
             if step is None:
                 break

@@ -181,3 +181,11 @@ def test_local_slopes_per_series():
     s = [0.5, 0.5, 0.75, 0.5, 0.5]
     two = local_slopes(N, err, (s, fam)).to_numpy()
     assert np.isnan(two[2]) and two[1] == pytest.approx(-0.25)
+
+
+def test_eta_energy_time_swaps_the_time_term():
+    from fracfem_workflow.report import eta_energy_time
+    runs = pd.DataFrame({"eta": [5.0, 2.0], "eta2_time": [16.0, 3.0],
+                         "eta2_time_anorm": [7.0, 1.0]})
+    np.testing.assert_allclose(eta_energy_time(runs), [4.0, np.sqrt(2.0)])
+    assert eta_energy_time(runs.drop(columns="eta2_time_anorm")).isna().all()

@@ -6,7 +6,7 @@ import pandas as pd
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import ERROR_LABELS, plt, problem_title, save, time_panel
-from fracfem_workflow.report import fit_mask, fit_rate, masked_rate
+from fracfem_workflow.report import eta_energy_time, fit_mask, fit_rate, masked_rate
 
 # columns of para_errors' tables shown in the reference table, under these names
 REFERENCE_COLUMNS = {"reference_operator": "operator used", "reference_dofs": "dofs",
@@ -50,8 +50,8 @@ def algorithm_c_table(df):
         finest = d.iloc[-1]
         # the same with the time term in the energy norm (a diagnostic outside η)
         anorm = {}
-        if "eta2_time_anorm" in d and d.eta2_time_anorm.notna().all():
-            eta_a = np.sqrt(d.eta ** 2 - d.eta2_time + d.eta2_time_anorm)
+        eta_a = eta_energy_time(d)
+        if eta_a.notna().all():
             anorm = {"η_time,a rate (same runs)": masked_rate(
                          d.spacetime_dofs, d.eta2_time_anorm.clip(lower=0.0) ** 0.5, keep),
                      "η_a rate (same runs)": masked_rate(d.spacetime_dofs, eta_a, keep),

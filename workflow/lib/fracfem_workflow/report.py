@@ -51,6 +51,15 @@ def local_slopes(dofs, errors, series) -> pd.Series:
     return (np.log(errors).groupby(keys).diff() / np.log(dofs).groupby(keys).diff())
 
 
+def eta_energy_time(runs: pd.DataFrame) -> pd.Series:
+    """η_a of Algorithm C's passes: η with its time term (``eta2_time``, the
+    indicator's h^{−2s}‖·‖²_{L²} form) replaced by the same term in the energy norm
+    (``eta2_time_anorm``); NaN where a run has no such column or value."""
+    if "eta2_time_anorm" not in runs:
+        return pd.Series(np.nan, index=runs.index)
+    return np.sqrt(runs.eta ** 2 - runs.eta2_time + runs.eta2_time_anorm)
+
+
 # A rate is fitted only through runs whose error exceeds REFERENCE_MARGIN times the
 # reference's own error: closer to it, the measured error is as much the reference's as
 # the run's.  Fixed before any rate was looked at; the README states it.
