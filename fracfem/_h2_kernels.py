@@ -316,6 +316,114 @@ def leaf_evaluate(G, cent, perm, leaves, cl_start, cl_end, boxes, z, out,
                     out[T, r, d] = acc
 
 
+@njit(cache=True, parallel=True)
+def leaf_source_matrix(t, perm, leaves, cl_start, cl_end, boxes, z, cent, area, mom,
+                       grad, node_index):  # pragma: no cover
+    """CSR arrays (indptr, indices, data) of the matrix M taking the free-node
+    values x to the leaf moments of :meth:`CompressedOperator.far_matvec`:
+    row (ℓ·2 + r)·p + α of leaf number ℓ holds W[leaves[ℓ], r, α] =
+    Σ_T Σ_j M_(T, j) x_(t[T, j]), with, at the centroid of T,
+
+    * r = 0: (|T|/3) L_α (the value sources |T|/3 Σ_j x_j);
+    * r = 1: (I∇λ_j)·∇L_α + (I : ∇²L_α)/6 (I the second moments of T).
+
+    Columns are ``node_index`` of the nodes (−1: not free, skipped); the
+    2p rows of a leaf share one sorted column list.  The same functionals as
+    :func:`leaf_moments` applied to the sources made from x, summed in
+    another order."""
+    m = z.shape[0]
+    p = m * m
+    nl = leaves.shape[0]
+    count = np.zeros(nl, dtype=np.int64)
+    for li in prange(nl):
+        c = leaves[li]
+        ne = cl_end[c] - cl_start[c]
+        buf = np.empty(3 * ne, dtype=np.int64)
+        q = 0
+        for k in range(cl_start[c], cl_end[c]):
+            for j in range(3):
+                v = node_index[t[perm[k], j]]
+                if v >= 0:
+                    buf[q] = v
+                    q += 1
+        u = np.unique(buf[:q])
+        count[li] = u.shape[0]
+    off = np.zeros(nl + 1, dtype=np.int64)
+    for li in range(nl):
+        off[li + 1] = off[li] + 2 * p * count[li]
+    indptr = np.empty(nl * 2 * p + 1, dtype=np.int64)
+    indptr[nl * 2 * p] = off[nl]
+    indices = np.empty(off[nl], dtype=np.int64)
+    data = np.zeros(off[nl], dtype=np.float64)
+    for li in prange(nl):
+        c = leaves[li]
+        ne = cl_end[c] - cl_start[c]
+        buf = np.empty(3 * ne, dtype=np.int64)
+        q = 0
+        for k in range(cl_start[c], cl_end[c]):
+            for j in range(3):
+                v = node_index[t[perm[k], j]]
+                if v >= 0:
+                    buf[q] = v
+                    q += 1
+        u = np.unique(buf[:q])
+        nu = u.shape[0]
+        for row in range(2 * p):
+            r0 = off[li] + row * nu
+            indptr[li * 2 * p + row] = r0
+            for i in range(nu):
+                indices[r0 + i] = u[i]
+        bx = np.empty((3, m))
+        by = np.empty((3, m))
+        L = np.empty((6, p))
+        for k in range(cl_start[c], cl_end[c]):
+            T = perm[k]
+            _basis_2d(cent[T, 0], cent[T, 1], boxes[c], z, bx, by, L)
+            a3 = area[T] / 3.0
+            m0 = mom[T, 0]
+            m1 = mom[T, 1]
+            m2 = mom[T, 2]
+            for j in range(3):
+                v = node_index[t[T, j]]
+                if v < 0:
+                    continue
+                col = np.searchsorted(u, v)
+                g0 = grad[T, j, 0]
+                g1 = grad[T, j, 1]
+                w1 = m0 * g0 + m1 * g1
+                w2 = m1 * g0 + m2 * g1
+                base0 = off[li] + col
+                base1 = off[li] + p * nu + col
+                for a in range(p):
+                    data[base0 + a * nu] += a3 * L[0, a]
+                    data[base1 + a * nu] += (w1 * L[1, a] + w2 * L[2, a]
+                                             + (m0 * L[3, a] + 2.0 * m1 * L[4, a]
+                                                + m2 * L[5, a]) / 6.0)
+    return indptr, indices, data
+
+
+@njit(cache=True, parallel=True)
+def csr_matvec(indptr, indices, data, x, nchunks):  # pragma: no cover
+    """y = A x for A in CSR arrays, rows split into ``nchunks`` ranges of
+    about equal numbers of entries, one per thread (scipy's product runs on
+    one thread)."""
+    n = indptr.shape[0] - 1
+    y = np.empty(n)
+    nnz = indptr[n]
+    bounds = np.empty(nchunks + 1, dtype=np.int64)
+    for c in range(nchunks + 1):
+        bounds[c] = np.searchsorted(indptr, (nnz * c) // nchunks)
+    bounds[0] = 0
+    bounds[nchunks] = n
+    for c in prange(nchunks):
+        for i in range(bounds[c], bounds[c + 1]):
+            acc = 0.0
+            for k in range(indptr[i], indptr[i + 1]):
+                acc += data[k] * x[indices[k]]
+            y[i] = acc
+    return y
+
+
 # ---------------------------------------------------------------- near field
 
 

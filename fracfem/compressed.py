@@ -359,7 +359,7 @@ class CompressedOperator(spla.LinearOperator):
     """Free-node stiffness operator: ``op @ x``, ``op.diagonal()``, ``op.nbytes``."""
 
     def __init__(self, near: sp.csr_matrix, far: dict, free: np.ndarray, nv: int,
-                 t: np.ndarray, info: dict):
+                 t: np.ndarray, info: dict, leaf_matrix: sp.csr_matrix | None = None):
         n = len(free)
         super().__init__(dtype=np.float64, shape=(n, n))
         self.near = near
@@ -368,11 +368,13 @@ class CompressedOperator(spla.LinearOperator):
         self._nv = nv
         self._t = t
         self.info = info
+        self.leaf_matrix = leaf_matrix
 
     @property
     def nbytes(self) -> int:
-        """Bytes held by the representation (sparse near field, H² data)."""
-        n = self.near.data.nbytes + self.near.indices.nbytes + self.near.indptr.nbytes
+        """Bytes held by the representation (sparse near field, H² data,
+        leaf matrix)."""
+        n = sum(_csr_bytes(a) for a in (self.near, self.leaf_matrix) if a is not None)
         return int(n + sum(v.nbytes for v in self._far.values()
                            if isinstance(v, np.ndarray))
                    + sum(v.nbytes for v in self._far["tgt"].values()
@@ -384,7 +386,36 @@ class CompressedOperator(spla.LinearOperator):
         return self.near.diagonal()
 
     def far_matvec(self, x: np.ndarray) -> np.ndarray:
-        """The admissible-block part alone (free nodes)."""
+        """The admissible-block part alone (free nodes).
+
+        With the leaf matrix M (:func:`leaf_matrix`) the leaf moments are
+        W = M x and the result is −c Mᵀ(G₀ + G₁, G₀) of the leaf expansions
+        G = (G₀, G₁): the evaluation functionals are those of the moments,
+        the value sources' expansion taking every functional and the other
+        one the value alone.  Without it, :meth:`far_matvec_reference`."""
+        M = self.leaf_matrix
+        if M is None:
+            return self.far_matvec_reference(x)
+        f = self._far
+        S, T, z = f["src"], f["tgt"], f["z"]
+        m = z.shape[0]
+        p = m * m
+        leaves = S["leaves"]
+        W = np.zeros((len(S["boxes"]), 2, p))
+        W[leaves] = (M @ np.asarray(x, dtype=np.float64)).reshape(len(leaves), 2, p)
+        hk.upward(W, S["E"], S["level_nodes"], S["level_ptr"], S["child0"], S["child1"], m)
+        G = _couple(f, W, None, None)
+        hk.downward(G, T["E"], T["level_nodes"], T["level_ptr"], T["child0"], T["child1"],
+                    m)
+        Gl = G[leaves]
+        Gl[:, 1] = Gl[:, 0]
+        Gl[:, 0] += G[leaves, 1]
+        return -f["c"] * (M.T @ Gl.reshape(-1))
+
+    def far_matvec_reference(self, x: np.ndarray) -> np.ndarray:
+        """:meth:`far_matvec` through element sources and the leaf kernels
+        (:func:`fracfem._h2_kernels.leaf_moments`, ``leaf_evaluate``), without
+        the leaf matrix: its reference."""
         f = self._far
         xa = np.zeros(self._nv)
         xa[self.free] = x
@@ -409,12 +440,45 @@ class CompressedOperator(spla.LinearOperator):
         y = np.bincount(self._t.ravel(), weights=ye.ravel(), minlength=self._nv)
         return y[self.free]
 
+    def near_matvec(self, x: np.ndarray) -> np.ndarray:
+        """The sparse near-field part alone, ``near @ x`` on all threads."""
+        import numba
+        A = self.near
+        return hk.csr_matvec(A.indptr, A.indices, A.data,
+                             np.ascontiguousarray(x, dtype=np.float64),
+                             numba.get_num_threads())
+
     def _matvec(self, x):
         x = np.asarray(x, dtype=np.float64).reshape(-1)
-        return self.near @ x + self.far_matvec(x)
+        return self.near_matvec(x) + self.far_matvec(x)
 
     def _rmatvec(self, x):
         return self._matvec(x)
+
+
+def _csr_bytes(a: sp.csr_matrix) -> int:
+    return int(a.data.nbytes + a.indices.nbytes + a.indptr.nbytes)
+
+
+def leaf_matrix(far: dict, t: np.ndarray, free: np.ndarray, nv: int) -> sp.csr_matrix:
+    """The sparse matrix M (2·p rows per leaf cluster, one column per free
+    node) of the leaf moments of the far field (see
+    :func:`fracfem._h2_kernels.leaf_source_matrix`); ``far`` is the H² data
+    of :func:`stiffness_operator` with the element moments."""
+    S = far["src"]
+    p = len(far["z"]) ** 2
+    node_index = np.full(nv, -1, dtype=np.int64)
+    node_index[free] = np.arange(len(free))
+    indptr, indices, data = hk.leaf_source_matrix(
+        np.ascontiguousarray(t, dtype=np.int64), S["perm"], S["leaves"], S["start"],
+        S["end"], S["boxes"], far["z"], S["cent"], far["area"], far["mom"], far["grad"],
+        node_index)
+    if len(data) < np.iinfo(np.int32).max and len(free) < np.iinfo(np.int32).max:
+        indptr, indices = indptr.astype(np.int32), indices.astype(np.int32)
+    M = sp.csr_matrix((data, indices, indptr), shape=(len(S["leaves"]) * 2 * p, len(free)),
+                      copy=False)
+    M.has_sorted_indices = True
+    return M
 
 
 def _tree_data(tree: dict, points: np.ndarray, z: np.ndarray) -> dict:
@@ -471,9 +535,32 @@ def _far_blocks(tt: dict, ts: dict, far: np.ndarray, tdata: dict, sdata: dict,
     return out
 
 
+_BLAS = None
+
+
+def _blas_one_thread():
+    """A context in which BLAS runs on one thread.
+
+    :func:`fracfem._h2_kernels.couple_grouped` calls BLAS from each of its
+    numba threads; a BLAS that threads every call on top of that oversubscribes
+    the cores (measured on 2 cores: the coupling of disk_uniform(6) took
+    23.9 ms with OpenBLAS on 2 threads per call, 6.3 ms on 1)."""
+    global _BLAS
+    if _BLAS is None:
+        import scipy.linalg.cython_blas  # noqa: F401  (numba's np.dot calls this BLAS)
+        from threadpoolctl import ThreadpoolController
+        _BLAS = ThreadpoolController()
+    return _BLAS.limit(limits=1, user_api="blas")
+
+
 def _couple(f: dict, W: np.ndarray, K: np.ndarray | None, lazy) -> np.ndarray:
     """G[σ] = Σ_τ K_(σ,τ) W[τ] over the admissible blocks: with the stored K,
     or (``lazy`` = (comp, geometries per batch)) batch by batch."""
+    with _blas_one_thread():
+        return _couple_blocks(f, W, K, lazy)
+
+
+def _couple_blocks(f: dict, W: np.ndarray, K: np.ndarray | None, lazy) -> np.ndarray:
     import numba
     nc, nth = len(f["tgt"]["boxes"]), numba.get_num_threads()
     ptr, rows, cols = f["grp_ptr"], f["grp_rows"], f["grp_cols"]
@@ -564,7 +651,8 @@ def _restrict(A: sp.csr_matrix, free: np.ndarray) -> sp.csr_matrix:
 def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
                        quadrature: QuadratureOptions | None = None,
                        eta: float = DEFAULT_ETA, leaf_size: int = DEFAULT_LEAF,
-                       order: int | None = None) -> CompressedOperator:
+                       order: int | None = None,
+                       leaf_matrices: bool = True) -> CompressedOperator:
     """Compressed free-node stiffness operator (interior nodes in
     ``mesh.interior_nodes()`` order).
 
@@ -577,6 +665,10 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     eta : admissibility max(diam) ≤ eta·dist, in (0, 4]
     leaf_size : elements per leaf cluster, in [4, 512]
     order : Chebyshev points per direction (overrides ``tol``), in [2, 14]
+    leaf_matrices : hold the sparse matrix from free-node values to leaf
+        moments (:func:`leaf_matrix`, about a fifth more memory) so that a
+        product spends no time on the Chebyshev bases of the elements; False
+        keeps :meth:`CompressedOperator.far_matvec_reference` as the product
     """
     s = check_s(s)
     m = chebyshev_order(tol) if order is None else int(order)
@@ -680,9 +772,14 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     Af = _restrict(A, free)
     del A
     tim["total"] = time.perf_counter() - t0
+    t6 = time.perf_counter()
+    M = leaf_matrix(fdata, t, free, nv) if leaf_matrices else None
+    tim["leaf_matrix"] = time.perf_counter() - t6
+    tim["total"] = time.perf_counter() - t0
     info = dict(order=m, tol=tol, eta=eta, leaf_size=leaf_size, clusters=len(tree["start"]),
-                far_blocks=len(far), coupling_matrices=len(fdata["K"]), near_blocks=len(near), near_nnz=Af.nnz, timings=tim)
+                far_blocks=len(far), coupling_matrices=len(fdata["K"]), near_blocks=len(near),
+                near_nnz=Af.nnz, leaf_matrix_nnz=0 if M is None else M.nnz, timings=tim)
     log.info("compressed operator: %d free nodes, %d far / %d near blocks, order %d, "
              "%.1f MB, %.2f s", len(free), len(far), len(near), m,
              (Af.data.nbytes + fdata["K"].nbytes) / 2**20, tim["total"])
-    return CompressedOperator(Af, fdata, free, nv, t, info)
+    return CompressedOperator(Af, fdata, free, nv, t, info, M)
