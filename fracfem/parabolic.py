@@ -239,6 +239,34 @@ def time_grid(times=None, *, T=None, tau=None, t0: float = 0.0) -> np.ndarray:
 # ------------------------------------------------------------------ the stepper
 
 
+def _held_bytes(obj, seen=None) -> int:
+    """Bytes of the numpy arrays, sparse matrices and compressed operators in
+    ``obj`` (through lists, tuples, dicts and the attributes of other objects),
+    each counted once."""
+    import scipy.sparse as sp
+
+    from .compressed import CompressedOperator
+    seen = set() if seen is None else seen
+    if obj is None or id(obj) in seen or isinstance(obj, (str, bytes, int, float)):
+        return 0
+    seen.add(id(obj))
+    if isinstance(obj, np.ndarray):
+        return int(obj.nbytes) if obj.base is None or id(obj.base) not in seen else 0
+    if isinstance(obj, CompressedOperator):
+        return int(obj.nbytes)
+    if sp.issparse(obj):
+        return sum(int(getattr(obj, a).nbytes) for a in ("data", "indices", "indptr", "row",
+                                                          "col", "offsets")
+                   if isinstance(getattr(obj, a, None), np.ndarray))
+    if isinstance(obj, dict):
+        return sum(_held_bytes(v, seen) for v in obj.values())
+    if isinstance(obj, (list, tuple)):
+        return sum(_held_bytes(v, seen) for v in obj)
+    if hasattr(obj, "__dict__"):
+        return sum(_held_bytes(v, seen) for v in vars(obj).values())
+    return 0
+
+
 class Stepper:
     """DG(0) steps of one assembled problem, with the per-τ factorisations.
 
@@ -294,6 +322,14 @@ class Stepper:
     @property
     def s(self) -> float:
         return self.disc.s
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the arrays it holds: the stiffness matrix or compressed
+        operator, the coupling and mass matrices and the cached factorisations,
+        Schur complements and preconditioners."""
+        return _held_bytes([self.disc.A, getattr(self.cset, "B", None), self.M_rows, self.M,
+                            self._M_dense, self._M_lu, list(self._ops.values())])
 
     @property
     def n_free(self) -> int:

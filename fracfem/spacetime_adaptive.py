@@ -19,6 +19,7 @@ import logging
 import math
 import numbers
 import time
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Iterator
 
@@ -122,20 +123,34 @@ class _Settings:
 # ------------------------------------------------------------------ SOLVE
 
 
-def _stepper(slab, cache, make_problem) -> Stepper:
-    """The :class:`Stepper` of the slab's coarse mesh, assembled once per mesh.
+def _stepper(slab, cache: OrderedDict, make_problem, cache_bytes: float) -> Stepper:
+    """The :class:`Stepper` of the slab's coarse mesh, assembled once per mesh
+    while it stays in the cache.
 
-    ``cache``: id(coarse) → (coarse, Stepper); slabs sharing a mesh share one entry.
+    ``cache``: id(coarse) → (coarse, Stepper), least recently used first; slabs
+    sharing a mesh share one entry.  After an insertion the least recently used
+    entries other than the new one are dropped until the steppers hold at most
+    ``cache_bytes`` (:attr:`Stepper.nbytes`).
     """
     key = id(slab.coarse)
-    if key not in cache:
-        prob = make_problem(slab.coarse)
-        if not isinstance(prob, MixedProblem) or prob.kind not in ("obstacle",
-                                                                  "friction"):
-            raise TypeError("make_problem must return a vi.MixedProblem of kind "
-                            "'obstacle' or 'friction'")
-        cache[key] = (slab.coarse, Stepper(prob))
+    if key in cache:
+        cache.move_to_end(key)
+        return cache[key][1]
+    prob = make_problem(slab.coarse)
+    if not isinstance(prob, MixedProblem) or prob.kind not in ("obstacle", "friction"):
+        raise TypeError("make_problem must return a vi.MixedProblem of kind "
+                        "'obstacle' or 'friction'")
+    cache[key] = (slab.coarse, Stepper(prob))
+    _trim(cache, cache_bytes)
     return cache[key][1]
+
+
+def _trim(cache: OrderedDict, cache_bytes: float) -> None:
+    """Drop least recently used steppers (never the last) beyond ``cache_bytes``."""
+    held = sum(st.nbytes for _, st in cache.values())
+    while len(cache) > 1 and held > cache_bytes:
+        _, (_, st) = cache.popitem(last=False)
+        held -= st.nbytes
 
 
 def _slab_times(slab, st, c_tau, n_min) -> np.ndarray:
@@ -316,6 +331,15 @@ def _refine_slabs(slabs, marked, slab_totals, bisect_fraction):
 # ------------------------------------------------------------------ Algorithm C
 
 
+def _cache_bytes(value) -> float:
+    """The assembled-problem cache's budget in bytes (see :func:`algorithm_c`)."""
+    from .memory import _parse_bytes, available_memory
+    if value is None:
+        avail = available_memory()
+        return max(2.0 ** 30, 0.25 * avail) if avail else 4.0 * 2.0 ** 30
+    return _parse_bytes(value, "cache_bytes")
+
+
 def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                       iterations: int, c_tau: float = 1.0, marking: str = "maximum",
                       solver: str = "pdas", f=0.0, f_time: bool | None = None,
@@ -323,7 +347,8 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                       n_min: int = 1, bisect_fraction: float = 0.5,
                       time_quadrature: int = 3, solver_options: dict | None = None,
                       estimator_options: dict | None = None,
-                      callback=None, keep_steps: bool = False
+                      callback=None, keep_steps: bool = False,
+                      cache_bytes: float | str | None = None
                       ) -> Iterator[IterationRecord]:
     """Algorithm C as a generator of :class:`IterationRecord` (see :func:`algorithm_c`)."""
     theta = _check_theta(theta)
@@ -344,6 +369,7 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
     if not (_is_real(u0) or callable(u0)):
         raise ValueError("u0 must be a number or a callable u0(x) (the meshes change)")
     outs = _check_output_times(output_times, T)
+    cache_bytes = _cache_bytes(cache_bytes)
     est_opts = dict(estimator_options or {})
     run = _Settings(T=T, u0=u0, source=Source(f, f_time), solver=solver,
                     solver_options=solver_options, time_quadrature=time_quadrature,
@@ -352,7 +378,7 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                               if k in est_opts},
                     keep_steps=keep_steps)
 
-    cache: dict = {}      # id(coarse) → (coarse, Stepper)
+    cache: OrderedDict = OrderedDict()      # id(coarse) → (coarse, Stepper), LRU first
     slabs = [Slab(0.0, T, coarse0)]
     clock = Ticker(0.0)
     logger.info("Algorithm C: at most %d iterations on [0, %g], marking %s, theta %g, "
@@ -362,7 +388,7 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
         sweep = _SolveEstimate(run)
         for j, slab in enumerate(slabs):
             t0 = time.perf_counter()
-            st = _stepper(slab, cache, make_problem)
+            st = _stepper(slab, cache, make_problem, cache_bytes)
             sweep.timings["assemble"] += time.perf_counter() - t0
             sweep.slab(j, slab, st)
         rec = sweep.record(it, slabs)
@@ -382,7 +408,7 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                 slabs, rec.bisected = _refine_slabs(slabs, rec.marked, rec.slab_totals,
                                                     bisect_fraction)
                 keep = {id(sl.coarse) for sl in slabs}
-                cache = {k: v for k, v in cache.items() if k in keep}
+                cache = OrderedDict((k, v) for k, v in cache.items() if k in keep)
                 tim["refine"] = time.perf_counter() - t0
         tim["total"] = time.perf_counter() - t_iter
         logger.info("Algorithm C iteration %d: %d slabs, %d time steps, %d DOFs per step "
@@ -439,8 +465,9 @@ def algorithm_c(make_problem, coarse0, u0, *, T: float, theta: float, iterations
       is at least ``bisect_fraction`` (default ½) of its total indicator.  Slabs
       without marked prisms keep their mesh and length.
     * Assembled problems are cached by mesh identity (slabs sharing a mesh and
-      unchanged slabs of the previous iteration assemble once); each distinct mesh
-      in use holds its dense matrices.
+      unchanged slabs of the previous iteration assemble once), least recently used
+      dropped beyond ``cache_bytes`` (default: a quarter of the memory available
+      at the start, at least 1 GiB; a dropped mesh is assembled again when met).
 
     Parameters
     ----------
@@ -457,6 +484,8 @@ def algorithm_c(make_problem, coarse0, u0, *, T: float, theta: float, iterations
         :func:`~fracfem.spacetime_estimators.step_indicators` (localisation, boundary, p,
         method and tol of the pointwise (−Δ)ˢu_h)
     callback : called with each record; a truthy return stops after it
+    cache_bytes : bytes (a number, or a string such as '4G') the cached assembled
+        problems may hold; None: the default above
 
     Returns
     -------

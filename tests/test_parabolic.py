@@ -654,3 +654,37 @@ def test_algorithm_c_friction_and_doerfler():
     with pytest.raises(TypeError, match="MixedProblem"):
         spacetime_adaptive.algorithm_c(lambda c: laplace.discretise(meshes.refine_disk(c), S),
                               meshes.disk_uniform(1), 1.0, T=1.0, theta=0.5, iterations=1)
+
+
+def test_algorithm_c_same_with_any_cache_budget():
+    """A budget of one byte keeps only the stepper in use: meshes met again are
+    assembled again, and the passes are the same as with every mesh cached."""
+    built = []
+
+    def run(**kw):
+        make = _ex4_problem()
+
+        def counted(coarse):
+            built.append(id(coarse))
+            return make(coarse)
+        return spacetime_adaptive.algorithm_c(counted, meshes.disk_uniform(1), 2.0, T=1.0,
+                                              theta=0.5, iterations=3, **kw)
+    cached = run()
+    n_cached = len(built)
+    built.clear()
+    tight = run(cache_bytes=1)
+    assert len(built) > n_cached          # the tight budget assembled meshes again
+    for a, b in zip(cached, tight):       # the same up to round-off
+        assert a.eta == pytest.approx(b.eta, rel=1e-12) and a.dofs == b.dofs
+        np.testing.assert_allclose(a.steps["total"], b.steps["total"], rtol=1e-11)
+    with pytest.raises(ValueError, match="cache_bytes='lots'"):
+        run(cache_bytes="lots")
+
+
+def test_stepper_nbytes_counts_what_it_holds():
+    st = parabolic.Stepper(mixed_stepper("friction", 2, s=0.6).problem)   # nothing cached
+    n = st.n_free
+    before = st.nbytes
+    assert before >= 8 * n * n               # the dense stiffness matrix
+    st.operator(0.1)                          # + Cholesky factor and dense mass
+    assert st.nbytes - before >= 2 * 8 * n * n

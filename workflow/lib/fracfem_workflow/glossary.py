@@ -312,6 +312,22 @@ GROUPS = [
         "batch_rel_diff": "max over the K functions of max |batched − single| / "
                           "max |single| over the points",
     }),
+    ("One product of the compressed operator (`benchmarks/matvec.md`)", False, {
+        "far_blocks": "admissible blocks of the H² matrix",
+        "reference_product_s": "seconds of one product through the element sources and "
+                               "leaf kernels, with scipy's one-thread near-field product",
+        "product_s": "seconds of one product of the operator as built (leaf matrix, near "
+                     "field on all threads)",
+        "near_field_s": "its sparse near-field part",
+        "far_field_s": "its admissible-block part",
+        "couple_s": "the coupling of the admissible blocks within far_field_s, BLAS on "
+                    "one thread",
+        "couple_blas_threads_s": "the same coupling with BLAS threading each call inside "
+                                 "the numba threads",
+        "product_rel_diff": "|product − reference product| / |reference product|",
+        "leaf_matrix_mb": "memory of the leaf matrix within nbytes_mb, MiB",
+        "product_speedup": "reference_product_s / product_s",
+    }),
     ("Bad input (`bad-inputs.md`)", False, {
         "parameter": "the argument at fault",
         "input": "what was passed",
