@@ -95,6 +95,8 @@ GRADING = EX1["grading"]      # the grading exponent of every graded mesh
 S_EX1 = sorted({float(EX1["s"])} | {float(s) for s in config["s_values"]})
 VI_PROBLEMS = ["ex2"] + [f"ex3-{v}" for v in EX3["variants"]]
 PARA_PROBLEMS = list(PARA["examples"])
+# the parabolic jobs' rules: the top-level quadrature with parabolic.quadrature on top
+PARA_QUADRATURE = {**QUADRATURE, **PARA.get("quadrature", {})}
 
 
 def para_reference_h(problem):
@@ -251,7 +253,7 @@ def para_reference_parameters(wildcards):
     from fracfem_workflow.runs import parameter_columns
     R = PARA["reference"]
     return {"tag": para_reference_tag(wildcards.problem), **parameter_columns(
-        quadrature=QuadratureOptions(**QUADRATURE), grading=GRADING, T=PARA["T"],
+        quadrature=QuadratureOptions(**PARA_QUADRATURE), grading=GRADING, T=PARA["T"],
         tau_factor=R["tau_factor"], solver="pdas", tol=SOLVER["tol"], operator=R["operator"],
         data=para_data(wildcards))}
 

@@ -19,7 +19,7 @@ rule para_solve:
         T=PARA["T"],
         tau_factor=para_tau_factor,
         tol=SOLVER["tol"],
-        quadrature=QUADRATURE,
+        quadrature=PARA_QUADRATURE,
         operator=lambda w: PARA["reference"]["operator"] if w.family == "reference" else "dense",
     threads: 2
     conda:
@@ -53,7 +53,7 @@ rule para_adaptive:
         operator=PARA["adaptive"]["operator"],
         output_times=PARA["output_times"],
         tol=SOLVER["tol"],
-        quadrature=QUADRATURE,
+        quadrature=PARA_QUADRATURE,
     threads: 2
     conda:
         ENV
@@ -78,7 +78,7 @@ rule para_errors:
     wildcard_constraints:
         problem="|".join(PARA_PROBLEMS),
     params:
-        quadrature=QUADRATURE,
+        quadrature=PARA_QUADRATURE,
     threads: 2
     conda:
         ENV
@@ -259,7 +259,7 @@ rule para_reference_check:
         tau_factor=PARA["tau_factor"],
         family_h=PARA["reference"]["check_h"],
         reference_tau_factor=PARA["reference"]["tau_factor"],
-        quadrature=QUADRATURE,
+        quadrature=PARA_QUADRATURE,
     log:
         f"{RES}/logs/para/reference_check.log",
     benchmark:
@@ -292,7 +292,7 @@ rule ex5_uniform_cause:
         family_h=PARA["reference"]["check_h"],
         reference_tau_factor=PARA["reference"]["tau_factor"],
         tol=SOLVER["tol"],
-        quadrature=QUADRATURE,
+        quadrature=PARA_QUADRATURE,
     log:
         f"{RES}/logs/para/ex5_uniform_cause.log",
     benchmark:

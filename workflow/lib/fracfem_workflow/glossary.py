@@ -328,6 +328,19 @@ GROUPS = [
         "leaf_matrix_mb": "memory of the leaf matrix within nbytes_mb, MiB",
         "product_speedup": "reference_product_s / product_s",
     }),
+    ("Where the Taylor rule starts (`benchmarks/taylor-threshold.md`)", False, {
+        "diam_min": "smallest triangle diameter of the mesh",
+        "near_nnz_R8": "node pairs of the compressed operator's near field with the Taylor "
+                       "rule from separation ratio 8 (config.yaml)",
+        "near_nnz_R4": "the same from separation ratio 4 (config/paper.yaml)",
+        "near_ratio": "near_nnz_R8 / near_nnz_R4",
+        "near_share_R8": "near_nnz_R8 over the entries of a dense matrix on all nodes",
+        "energy_error": "E − E_h: exact energy minus (f, u_h) with the rules of config.yaml",
+        "change_R4": "|E_h(R = 4) − E_h(R = 8)|",
+        "change_raised": "|E_h(raised rules) − E_h(R = 8)|: every singular and near rule "
+                         "raised, the Taylor rule kept from ratio 8",
+        "error_over_change_R4": "|energy_error| / change_R4",
+    }),
     ("Bad input (`bad-inputs.md`)", False, {
         "parameter": "the argument at fault",
         "input": "what was passed",
