@@ -543,8 +543,8 @@ def _blas_one_thread():
 
     :func:`fracfem._h2_kernels.couple_grouped` calls BLAS from each of its
     numba threads; a BLAS that threads every call on top of that oversubscribes
-    the cores (measured on 2 cores: the coupling of disk_uniform(6) took
-    23.9 ms with OpenBLAS on 2 threads per call, 6.3 ms on 1)."""
+    the cores (``couple_s`` against ``couple_blas_threads_s`` in
+    ``benchmarks/matvec.md``)."""
     global _BLAS
     if _BLAS is None:
         import scipy.linalg.cython_blas  # noqa: F401  (numba's np.dot calls this BLAS)
