@@ -424,6 +424,32 @@ def csr_matvec(indptr, indices, data, x, nchunks):  # pragma: no cover
     return y
 
 
+@njit(cache=True, parallel=True)
+def csr_rmatvec(indptr, indices, data, g, ncols, nchunks):  # pragma: no cover
+    """y = Aᵀ g for A in CSR arrays (ncols columns): row ranges of about equal
+    numbers of entries, one per thread, each scattering into its own y."""
+    n = indptr.shape[0] - 1
+    nnz = indptr[n]
+    bounds = np.empty(nchunks + 1, dtype=np.int64)
+    for c in range(nchunks + 1):
+        bounds[c] = np.searchsorted(indptr, (nnz * c) // nchunks)
+    bounds[0] = 0
+    bounds[nchunks] = n
+    Y = np.zeros((nchunks, ncols))
+    for c in prange(nchunks):
+        for i in range(bounds[c], bounds[c + 1]):
+            gi = g[i]
+            if gi == 0.0:
+                continue
+            for k in range(indptr[i], indptr[i + 1]):
+                Y[c, indices[k]] += data[k] * gi
+    y = np.zeros(ncols)
+    for c in range(nchunks):
+        for j in range(ncols):
+            y[j] += Y[c, j]
+    return y
+
+
 # ---------------------------------------------------------------- near field
 
 

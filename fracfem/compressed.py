@@ -402,7 +402,7 @@ class CompressedOperator(spla.LinearOperator):
         p = m * m
         leaves = S["leaves"]
         W = np.zeros((len(S["boxes"]), 2, p))
-        W[leaves] = (M @ np.asarray(x, dtype=np.float64)).reshape(len(leaves), 2, p)
+        W[leaves] = _csr_matvec(M, x).reshape(len(leaves), 2, p)
         hk.upward(W, S["E"], S["level_nodes"], S["level_ptr"], S["child0"], S["child1"], m)
         G = _couple(f, W, None, None)
         hk.downward(G, T["E"], T["level_nodes"], T["level_ptr"], T["child0"], T["child1"],
@@ -410,7 +410,7 @@ class CompressedOperator(spla.LinearOperator):
         Gl = G[leaves]
         Gl[:, 1] = Gl[:, 0]
         Gl[:, 0] += G[leaves, 1]
-        return -f["c"] * (M.T @ Gl.reshape(-1))
+        return -f["c"] * _csr_rmatvec(M, Gl.reshape(-1))
 
     def far_matvec_reference(self, x: np.ndarray) -> np.ndarray:
         """:meth:`far_matvec` through element sources and the leaf kernels
@@ -442,11 +442,7 @@ class CompressedOperator(spla.LinearOperator):
 
     def near_matvec(self, x: np.ndarray) -> np.ndarray:
         """The sparse near-field part alone, ``near @ x`` on all threads."""
-        import numba
-        A = self.near
-        return hk.csr_matvec(A.indptr, A.indices, A.data,
-                             np.ascontiguousarray(x, dtype=np.float64),
-                             numba.get_num_threads())
+        return _csr_matvec(self.near, x)
 
     def _matvec(self, x):
         x = np.asarray(x, dtype=np.float64).reshape(-1)
@@ -454,6 +450,21 @@ class CompressedOperator(spla.LinearOperator):
 
     def _rmatvec(self, x):
         return self._matvec(x)
+
+
+def _csr_matvec(A: sp.csr_matrix, x: np.ndarray) -> np.ndarray:
+    """A @ x on all threads (scipy's product runs on one)."""
+    import numba
+    return hk.csr_matvec(A.indptr, A.indices, A.data,
+                         np.ascontiguousarray(x, dtype=np.float64), numba.get_num_threads())
+
+
+def _csr_rmatvec(A: sp.csr_matrix, g: np.ndarray) -> np.ndarray:
+    """Aᵀ @ g on all threads."""
+    import numba
+    return hk.csr_rmatvec(A.indptr, A.indices, A.data,
+                          np.ascontiguousarray(g, dtype=np.float64), A.shape[1],
+                          numba.get_num_threads())
 
 
 def _csr_bytes(a: sp.csr_matrix) -> int:

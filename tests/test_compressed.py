@@ -301,7 +301,11 @@ def test_leaf_matrix_product_matches_leaf_kernels(name, s, leaf):
         ref = op.far_matvec_reference(x)
         np.testing.assert_allclose(op.far_matvec(x), ref, rtol=0,
                                    atol=1e-13 * max(np.abs(ref).max(), 1e-300))
-    # the near field on all threads against scipy's product
+    # the threaded sparse products against scipy's
+    from fracfem.compressed import _csr_rmatvec
+    g = rng.standard_normal(M.shape[0])
+    np.testing.assert_allclose(_csr_rmatvec(M, g), M.T @ g, rtol=1e-12,
+                               atol=1e-14 * np.abs(M.T @ g).max())
     for x in X.T:
         np.testing.assert_allclose(op.near_matvec(x), op.near @ x, rtol=1e-14, atol=0)
     # without the leaf matrix the product is the reference path, and the
