@@ -152,7 +152,8 @@ def test_other_data_recompute_the_parabolic_reference(tmp_path, change):
 
 def test_paper_scale_tier_has_its_own_root_and_the_paper_sizes():
     """config/paper.yaml writes everything under results-paper/, runs Algorithm C and the
-    finer Example 4 reference, reuses the committed elliptic references, and its rate
+    finer Example 4 reference, reuses the committed elliptic references, recomputes
+    Example 5's under its own parabolic quadrature, and its rate
     table takes the default tier's committed rates.csv as input."""
     _, text = dry_run("--configfile", "config/paper.yaml", "--forceall")
     outputs = re.findall(r"^\s+output: (.*)$", text, re.M)
@@ -160,6 +161,9 @@ def test_paper_scale_tier_has_its_own_root_and_the_paper_sizes():
                            for o in line.split(", "))
     assert "results-paper/para/ex4-u1/reference/h0.0125.npz" in text
     assert "vi_adaptive_large" not in job_counts(text)
+    # its parabolic jobs' own quadrature (parabolic.quadrature): Example 5's committed
+    # reference, made with config.yaml's, is recomputed; the elliptic ones are not
+    assert "results-paper/para/ex5/reference/h0.025.npz" in text
     rates = text.split("rule rates:")[1].split("output:")[0]
     assert "paper-figures/rates.csv" in rates
 
