@@ -316,6 +316,21 @@ def leaf_evaluate(G, cent, perm, leaves, cl_start, cl_end, boxes, z, out,
                     out[T, r, d] = acc
 
 
+@njit(cache=True)
+def _leaf_free_nodes(t, perm, a, b, node_index):  # pragma: no cover
+    """Sorted free-node numbers (``node_index``, −1 skipped) of the elements
+    perm[a:b]."""
+    buf = np.empty(3 * (b - a), dtype=np.int64)
+    q = 0
+    for k in range(a, b):
+        for j in range(3):
+            v = node_index[t[perm[k], j]]
+            if v >= 0:
+                buf[q] = v
+                q += 1
+    return np.unique(buf[:q])
+
+
 @njit(cache=True, parallel=True)
 def leaf_source_matrix(t, perm, leaves, cl_start, cl_end, boxes, z, cent, area, mom,
                        grad, node_index):  # pragma: no cover
@@ -337,16 +352,7 @@ def leaf_source_matrix(t, perm, leaves, cl_start, cl_end, boxes, z, cent, area, 
     count = np.zeros(nl, dtype=np.int64)
     for li in prange(nl):
         c = leaves[li]
-        ne = cl_end[c] - cl_start[c]
-        buf = np.empty(3 * ne, dtype=np.int64)
-        q = 0
-        for k in range(cl_start[c], cl_end[c]):
-            for j in range(3):
-                v = node_index[t[perm[k], j]]
-                if v >= 0:
-                    buf[q] = v
-                    q += 1
-        u = np.unique(buf[:q])
+        u = _leaf_free_nodes(t, perm, cl_start[c], cl_end[c], node_index)
         count[li] = u.shape[0]
     off = np.zeros(nl + 1, dtype=np.int64)
     for li in range(nl):
@@ -357,16 +363,7 @@ def leaf_source_matrix(t, perm, leaves, cl_start, cl_end, boxes, z, cent, area, 
     data = np.zeros(off[nl], dtype=np.float64)
     for li in prange(nl):
         c = leaves[li]
-        ne = cl_end[c] - cl_start[c]
-        buf = np.empty(3 * ne, dtype=np.int64)
-        q = 0
-        for k in range(cl_start[c], cl_end[c]):
-            for j in range(3):
-                v = node_index[t[perm[k], j]]
-                if v >= 0:
-                    buf[q] = v
-                    q += 1
-        u = np.unique(buf[:q])
+        u = _leaf_free_nodes(t, perm, cl_start[c], cl_end[c], node_index)
         nu = u.shape[0]
         for row in range(2 * p):
             r0 = off[li] + row * nu
@@ -402,19 +399,27 @@ def leaf_source_matrix(t, perm, leaves, cl_start, cl_end, boxes, z, cent, area, 
     return indptr, indices, data
 
 
-@njit(cache=True, parallel=True)
-def csr_matvec(indptr, indices, data, x, nchunks):  # pragma: no cover
-    """y = A x for A in CSR arrays, rows split into ``nchunks`` ranges of
-    about equal numbers of entries, one per thread (scipy's product runs on
-    one thread)."""
+@njit(cache=True)
+def _row_chunks(indptr, nchunks):  # pragma: no cover
+    """Row bounds (nchunks + 1,) of CSR row ranges holding about equal numbers
+    of entries."""
     n = indptr.shape[0] - 1
-    y = np.empty(n)
     nnz = indptr[n]
     bounds = np.empty(nchunks + 1, dtype=np.int64)
     for c in range(nchunks + 1):
         bounds[c] = np.searchsorted(indptr, (nnz * c) // nchunks)
     bounds[0] = 0
     bounds[nchunks] = n
+    return bounds
+
+
+@njit(cache=True, parallel=True)
+def csr_matvec(indptr, indices, data, x, nchunks):  # pragma: no cover
+    """y = A x for A in CSR arrays, rows split into ``nchunks`` ranges of
+    about equal numbers of entries, one per thread (scipy's product runs on
+    one thread)."""
+    y = np.empty(indptr.shape[0] - 1)
+    bounds = _row_chunks(indptr, nchunks)
     for c in prange(nchunks):
         for i in range(bounds[c], bounds[c + 1]):
             acc = 0.0
@@ -428,13 +433,7 @@ def csr_matvec(indptr, indices, data, x, nchunks):  # pragma: no cover
 def csr_rmatvec(indptr, indices, data, g, ncols, nchunks):  # pragma: no cover
     """y = Aᵀ g for A in CSR arrays (ncols columns): row ranges of about equal
     numbers of entries, one per thread, each scattering into its own y."""
-    n = indptr.shape[0] - 1
-    nnz = indptr[n]
-    bounds = np.empty(nchunks + 1, dtype=np.int64)
-    for c in range(nchunks + 1):
-        bounds[c] = np.searchsorted(indptr, (nnz * c) // nchunks)
-    bounds[0] = 0
-    bounds[nchunks] = n
+    bounds = _row_chunks(indptr, nchunks)
     Y = np.zeros((nchunks, ncols))
     for c in prange(nchunks):
         for i in range(bounds[c], bounds[c + 1]):
