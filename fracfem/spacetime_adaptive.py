@@ -128,9 +128,10 @@ def _stepper(slab, cache: OrderedDict, make_problem, cache_bytes: float) -> Step
     while it stays in the cache.
 
     ``cache``: id(coarse) → (coarse, Stepper), least recently used first; slabs
-    sharing a mesh share one entry.  After an insertion the least recently used
-    entries other than the new one are dropped until the steppers hold at most
-    ``cache_bytes`` (:attr:`Stepper.nbytes`).
+    sharing a mesh share one entry.  After an insertion, and again after each
+    slab's steps (which add factorisations or preconditioners for new τ), the
+    least recently used entries other than the newest are dropped until the
+    steppers hold at most ``cache_bytes`` (:attr:`Stepper.nbytes`).
     """
     key = id(slab.coarse)
     if key in cache:
@@ -391,6 +392,7 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
             st = _stepper(slab, cache, make_problem, cache_bytes)
             sweep.timings["assemble"] += time.perf_counter() - t0
             sweep.slab(j, slab, st)
+            _trim(cache, cache_bytes)       # the slab's steps may have grown its stepper
         rec = sweep.record(it, slabs)
         tim = rec.timings
         if tol is not None and rec.eta <= tol:

@@ -681,6 +681,27 @@ def test_algorithm_c_same_with_any_cache_budget():
         run(cache_bytes="lots")
 
 
+def test_algorithm_c_cache_stays_within_budget_as_steppers_grow(monkeypatch):
+    """Each slab's steps add factorisations to its stepper after it was cached;
+    the budget holds when the next slab asks for its stepper, not only after
+    insertions (at most one stepper, the one in use, may exceed it alone)."""
+    seen = []
+    stepper = spacetime_adaptive._stepper
+
+    def watched(slab, cache, make_problem, cache_bytes):
+        held = sum(st.nbytes for _, st in cache.values())
+        seen.append((held, len(cache)))
+        return stepper(slab, cache, make_problem, cache_bytes)
+    monkeypatch.setattr(spacetime_adaptive, "_stepper", watched)
+    # measured: pass 1 caches a 0.36 MB stepper and inserts one of 1.4 MB that its
+    # steps grow to 4.3 MB; the two together exceed 3 MB at pass 2's first slab
+    budget = 3_000_000
+    spacetime_adaptive.algorithm_c(_ex4_problem(), meshes.disk_uniform(1), 2.0, T=1.0,
+                                   theta=0.5, iterations=3, cache_bytes=budget)
+    assert any(held > budget for held, _ in seen)       # a stepper alone over budget
+    assert all(held <= budget or n == 1 for held, n in seen)
+
+
 def test_stepper_nbytes_counts_what_it_holds():
     st = parabolic.Stepper(mixed_stepper("friction", 2, s=0.6).problem)   # nothing cached
     n = st.n_free
