@@ -41,6 +41,7 @@ __all__ = [
     "IterationRecord",
     "algorithm_c_steps",
     "algorithm_c",
+    "solve_slabs",
 ]
 
 logger = logging.getLogger(__name__)
@@ -146,6 +147,18 @@ def _stepper(slab, cache: OrderedDict, make_problem, cache_bytes: float) -> Step
     return cache[key][1]
 
 
+def _sweep(run, slabs, cache: OrderedDict, make_problem, cache_bytes) -> "_SolveEstimate":
+    """SOLVE and ESTIMATE on the slabs in order (steppers from ``cache``)."""
+    sweep = _SolveEstimate(run)
+    for j, slab in enumerate(slabs):
+        t0 = time.perf_counter()
+        st = _stepper(slab, cache, make_problem, cache_bytes)
+        sweep.timings["assemble"] += time.perf_counter() - t0
+        sweep.slab(j, slab, st)
+        _trim(cache, cache_bytes)       # the slab's steps may have grown its stepper
+    return sweep
+
+
 def _trim(cache: OrderedDict, cache_bytes: float) -> None:
     """Drop least recently used steppers (never the last) beyond ``cache_bytes``."""
     held = sum(st.nbytes for _, st in cache.values())
@@ -157,13 +170,15 @@ def _trim(cache: OrderedDict, cache_bytes: float) -> None:
 def _slab_times(slab, st, c_tau, n_min) -> np.ndarray:
     """Fill in the slab's fine mesh and step count; return its uniform time grid.
 
-    n_j = max(n_min, n_j inherited, ⌈(b − a)/(c_tau h_max^{2s})⌉): τ never grows.
+    n_j = max(n_min, n_j inherited, ⌈(b − a)/(c_tau h_max^{2s})⌉): τ never grows;
+    c_tau None: n_j = max(n_min, n_j inherited) (the slab's own steps).
     """
     slab.fine, slab.n_free = st.mesh, st.n_free
     slab.h_max = float(element_diameters(st.mesh).max())
     length = slab.b - slab.a
-    slab.n_steps = max(n_min, slab.n_steps,   # inherited: τ never grows
-                       math.ceil(length / time_step(slab.h_max, st.s, c_tau) - 1e-9))
+    rule = 0 if c_tau is None else math.ceil(length / time_step(slab.h_max, st.s, c_tau)
+                                               - 1e-9)
+    slab.n_steps = max(n_min, slab.n_steps, rule)   # inherited: τ never grows
     slab.tau = length / slab.n_steps
     return np.linspace(slab.a, slab.b, slab.n_steps + 1)
 
@@ -341,6 +356,74 @@ def _cache_bytes(value) -> float:
     return _parse_bytes(value, "cache_bytes")
 
 
+def _settings(*, T, u0, f, f_time, solver, solver_options, time_quadrature, order, c_tau,
+              n_min, output_times, estimator_options, keep_steps) -> _Settings:
+    """The checked arguments that SOLVE and ESTIMATE share (c_tau checked by the caller)."""
+    T = _positive("T", T)
+    n_min = _positive_int("n_min", n_min)
+    _check_solver(solver)
+    if _is_real(u0) and not np.isfinite(u0):
+        raise ValueError(f"u0={u0!r} must be finite")
+    if not (_is_real(u0) or callable(u0)):
+        raise ValueError("u0 must be a number or a callable u0(x) (the meshes change)")
+    est_opts = dict(estimator_options or {})
+    return _Settings(T=T, u0=u0, source=Source(f, f_time), solver=solver,
+                     solver_options=solver_options, time_quadrature=time_quadrature,
+                     order=order, c_tau=c_tau, n_min=n_min,
+                     outs=_check_output_times(output_times, T), est_opts=est_opts,
+                     loc_opts={k: est_opts[k] for k in ("localisation", "boundary")
+                               if k in est_opts},
+                     keep_steps=keep_steps)
+
+
+def solve_slabs(make_problem, slabs, u0, *, T: float, time_refinement: int = 1,
+                solver: str = "pdas", f=0.0, f_time: bool | None = None, order: int = 4,
+                output_times=(), time_quadrature: int = 3,
+                solver_options: dict | None = None, estimator_options: dict | None = None,
+                keep_steps: bool = True, cache_bytes: float | str | None = None,
+                iteration: int = 0) -> IterationRecord:
+    """SOLVE and ESTIMATE on a given space-time mesh, its time steps refined.
+
+    ``slabs``: the :class:`Slab` list of a pass of Algorithm C
+    (``IterationRecord.slabs``): contiguous, covering [0, T], each solved
+    (``n_steps`` ≥ 1).  Each slab keeps its coarse mesh (so its fine mesh) and
+    gets ``time_refinement`` × its ``n_steps`` uniform steps; everything else is
+    as in :func:`algorithm_c`, whose keywords these are.  The input slabs are
+    not changed.  ``time_refinement`` = 1 repeats the pass; larger values
+    separate the time discretisation's share of the error from the space
+    meshes' (the space meshes stay, τ falls).
+
+    Returns the :class:`IterationRecord` of the pass (``marked`` None),
+    ``iteration`` its number.
+    """
+    time_refinement = _positive_int("time_refinement", time_refinement)
+    run = _settings(T=T, u0=u0, f=f, f_time=f_time, solver=solver,
+                    solver_options=solver_options, time_quadrature=time_quadrature,
+                    order=order, c_tau=None, n_min=1, output_times=output_times,
+                    estimator_options=estimator_options, keep_steps=keep_steps)
+    slabs = list(slabs)
+    if not slabs or not all(isinstance(sl, Slab) for sl in slabs):
+        raise ValueError("slabs must be a non-empty list of Slab (IterationRecord.slabs)")
+    ends = np.array([[sl.a, sl.b] for sl in slabs], dtype=float)
+    gaps = np.abs(ends[1:, 0] - ends[:-1, 1])
+    if (abs(ends[0, 0]) > 1e-12 * run.T or abs(ends[-1, 1] - run.T) > 1e-12 * run.T
+            or np.any(gaps > 1e-12 * run.T) or np.any(ends[:, 1] <= ends[:, 0])):
+        raise ValueError(f"slabs must be contiguous and cover [0, T] = [0, {run.T}]; "
+                         f"got [a, b] = {ends.tolist()}")
+    bad = [j for j, sl in enumerate(slabs) if not (isinstance(sl.n_steps, numbers.Integral)
+                                                    and sl.n_steps >= 1)]
+    if bad:
+        raise ValueError(f"slabs {bad} have n_steps < 1: pass the slabs of a solved pass")
+    cache_bytes = _cache_bytes(cache_bytes)
+    mine = [Slab(sl.a, sl.b, sl.coarse, n_steps=time_refinement * int(sl.n_steps))
+            for sl in slabs]
+    sweep = _sweep(run, mine, OrderedDict(), make_problem, cache_bytes)
+    rec = sweep.record(iteration, mine)
+    logger.info("solve_slabs: %d slabs, %d time steps (× %d), %d space-time DOFs, eta %.4e",
+                len(mine), sum(sl.n_steps for sl in mine), time_refinement, rec.dofs, rec.eta)
+    return rec
+
+
 def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                       iterations: int, c_tau: float = 1.0, marking: str = "maximum",
                       solver: str = "pdas", f=0.0, f_time: bool | None = None,
@@ -357,42 +440,25 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
         raise ValueError(f"marking={marking!r} must be one of {tuple(MARKINGS)}")
     mark = MARKINGS[marking]
     iterations = _positive_int("iterations", iterations)
-    T = _positive("T", T)
     c_tau = _positive("c_tau", c_tau)
-    n_min = _positive_int("n_min", n_min)
-    _check_solver(solver)
     if not (_is_real(bisect_fraction) and 0.0 < bisect_fraction <= 1.0):
         raise ValueError(f"bisect_fraction={bisect_fraction!r} must be in (0, 1]")
     if tol is not None and not (_is_real(tol) and tol >= 0):
         raise ValueError(f"tol={tol!r} must be a number >= 0 or None")
-    if _is_real(u0) and not np.isfinite(u0):
-        raise ValueError(f"u0={u0!r} must be finite")
-    if not (_is_real(u0) or callable(u0)):
-        raise ValueError("u0 must be a number or a callable u0(x) (the meshes change)")
-    outs = _check_output_times(output_times, T)
-    cache_bytes = _cache_bytes(cache_bytes)
-    est_opts = dict(estimator_options or {})
-    run = _Settings(T=T, u0=u0, source=Source(f, f_time), solver=solver,
+    run = _settings(T=T, u0=u0, f=f, f_time=f_time, solver=solver,
                     solver_options=solver_options, time_quadrature=time_quadrature,
-                    order=order, c_tau=c_tau, n_min=n_min, outs=outs, est_opts=est_opts,
-                    loc_opts={k: est_opts[k] for k in ("localisation", "boundary")
-                              if k in est_opts},
-                    keep_steps=keep_steps)
+                    order=order, c_tau=c_tau, n_min=n_min, output_times=output_times,
+                    estimator_options=estimator_options, keep_steps=keep_steps)
+    cache_bytes = _cache_bytes(cache_bytes)
 
     cache: OrderedDict = OrderedDict()      # id(coarse) → (coarse, Stepper), LRU first
-    slabs = [Slab(0.0, T, coarse0)]
+    slabs = [Slab(0.0, run.T, coarse0)]
     clock = Ticker(0.0)
     logger.info("Algorithm C: at most %d iterations on [0, %g], marking %s, theta %g, "
-                "c_tau %g, tol %s", iterations, T, marking, theta, c_tau, tol)
+                "c_tau %g, tol %s", iterations, run.T, marking, theta, c_tau, tol)
     for it in range(iterations):
         t_iter = time.perf_counter()
-        sweep = _SolveEstimate(run)
-        for j, slab in enumerate(slabs):
-            t0 = time.perf_counter()
-            st = _stepper(slab, cache, make_problem, cache_bytes)
-            sweep.timings["assemble"] += time.perf_counter() - t0
-            sweep.slab(j, slab, st)
-            _trim(cache, cache_bytes)       # the slab's steps may have grown its stepper
+        sweep = _sweep(run, slabs, cache, make_problem, cache_bytes)
         rec = sweep.record(it, slabs)
         tim = rec.timings
         if tol is not None and rec.eta <= tol:

@@ -23,6 +23,7 @@ import pytest
 
 from fracfem import (assembly, exact, laplace, meshes, parabolic, spacetime_adaptive,
                      spacetime_estimators, vi)
+from fracfem.transfer import SpaceTimeReference
 
 S = 0.5
 
@@ -553,6 +554,51 @@ def test_algorithm_c_reduces_the_estimator():
         assert sum(p.sum() for p in r.prism_eta2) > 0
         assert set(r.timings) >= {"assemble", "solve", "estimate", "mark", "refine"}
     assert recs[-1].stop == "iterations" and recs[-1].marked is None
+
+
+def test_solve_slabs_repeats_a_pass_and_leaves_its_slabs_alone():
+    recs, _ = _ex4_run()
+    for r in recs:
+        steps = [sl.n_steps for sl in r.slabs]
+        again = spacetime_adaptive.solve_slabs(_ex4_problem(), r.slabs, 2.0, T=1.0)
+        assert again.eta == pytest.approx(r.eta, rel=1e-12) and again.dofs == r.dofs
+        np.testing.assert_allclose(again.steps["total"], r.steps["total"], rtol=1e-11)
+        assert [sl.n_steps for sl in r.slabs] == steps
+        assert again.marked is None and len(again.pieces) == sum(steps)
+
+
+def test_solve_slabs_time_refinement_converges_at_first_order():
+    """Backward Euler on a fixed space mesh: the distance to a run with 64× the
+    steps halves as τ halves (measured 1.71, 1.84, 1.96 for m = 1, 2, 4 against
+    C/m's 2.02, 2.07, 2.14), and the time indicator ∝ τ² (ratios 3.3, 3.6, 3.8 → 4)."""
+    slabs = _ex4_run()[0][0].slabs                         # one slab on one mesh
+    run = {m: spacetime_adaptive.solve_slabs(_ex4_problem(), slabs, 2.0, T=1.0,
+                                             time_refinement=m) for m in (1, 2, 4, 8, 64)}
+    assert [run[m].dofs for m in (1, 2, 64)] == [run[1].dofs * m for m in (1, 2, 64)]
+    prob = _ex4_problem()(slabs[0].coarse)
+    ref = SpaceTimeReference(run[64].pieces, prob.disc.A, prob.disc.free)
+    d = np.array([ref.distance(run[m].pieces) for m in (1, 2, 4, 8)])
+    halving = d[:-1] / d[1:]
+    assert np.all(halving > 1.6) and np.all(halving < 2.2) and np.all(np.diff(halving) > 0)
+    time2 = np.array([run[m].eta_parts["time"] for m in (1, 2, 4, 8)])
+    quarter = time2[:-1] / time2[1:]
+    assert np.all(quarter > 3.0) and np.all(quarter < 4.2) and np.all(np.diff(quarter) > 0)
+
+
+def test_solve_slabs_rejects_what_is_not_a_solved_pass():
+    slabs = _ex4_run()[0][-1].slabs
+    make = _ex4_problem()
+    with pytest.raises(ValueError, match="time_refinement=0"):
+        spacetime_adaptive.solve_slabs(make, slabs, 2.0, T=1.0, time_refinement=0)
+    with pytest.raises(ValueError, match="cover"):
+        spacetime_adaptive.solve_slabs(make, slabs[:-1], 2.0, T=1.0)
+    with pytest.raises(ValueError, match="cover"):
+        spacetime_adaptive.solve_slabs(make, slabs, 2.0, T=2.0)
+    with pytest.raises(ValueError, match="n_steps"):
+        spacetime_adaptive.solve_slabs(make, [spacetime_adaptive.Slab(0.0, 1.0, slabs[0].coarse)],
+                                       2.0, T=1.0)
+    with pytest.raises(ValueError, match="non-empty list of Slab"):
+        spacetime_adaptive.solve_slabs(make, [], 2.0, T=1.0)
 
 
 def test_algorithm_c_slabs_cover_the_interval_and_refine_locally():
