@@ -76,6 +76,7 @@ rule all:
         rules.parabolic_summary.output,
         rules.para_reference_check.output,
         rules.ex5_uniform_cause.output,
+        expand(rules.para_time_split.output, problem=PARA["time_split"]["problems"]),
         expand(rules.thin_demo.output, kind=["obstacle", "friction"]),
         rules.results_page.output,
     default_target: True

@@ -215,3 +215,33 @@ def test_algorithm_c_table_rates_of_the_estimator_parts():
     assert np.isnan(row["η_initial rate (same runs)"])
     assert row["time share of η² (finest)"] == pytest.approx(time2[-1] / (time2[-1] + space2[-1]))
     assert row["error rate (fitted runs)"] == pytest.approx(-0.4, abs=1e-12)
+
+
+def test_time_split_page_fits_each_refinement_through_the_passes_above_the_margin():
+    """Errors √(S² + (T/m)²) with a space part S ∝ N^(−0.2) and a time part T ∝ N^(−0.5):
+    the page fits each m over the passes above 3× the reference's error, against the
+    pass's own space-time DOFs, and reports the share of e² removed by τ/16."""
+    split = script("para_time_split")
+    N = np.array([1e3, 4e3, 1.6e4, 6.4e4])
+    rows = []
+    for p, n in enumerate(N):
+        S, T = 0.1 * (n / 1e3) ** -0.2, 0.3 * (n / 1e3) ** -0.5
+        for m in (1, 4, 16):
+            rows.append({"pass": p, "m": m, "spacetime_dofs": n * m, "steps": 10 * m,
+                         "dofs": 100, "error": np.hypot(S, T / m)})
+    df = pd.DataFrame(rows)
+    ref_error = df[(df["pass"] == 3) & (df.m == 16)].error.iloc[0] / 2.9   # pass 3 of τ/16 out
+    page = split.report(df, ref_error, [1, 4, 16], paper=-0.323)
+    lines = [ln for ln in page.splitlines() if ln.startswith("| ")]
+    fits = {ln.split("|")[1].strip(): ln for ln in lines[1:4]}
+    assert fits["16× (τ/16)"].split("|")[4].strip() == "0, 1, 2"
+    assert fits["as the pass"].split("|")[4].strip() == "0, 1, 2, 3"
+    e1 = df[df.m == 1].error.to_numpy()
+    assert float(fits["as the pass"].split("|")[2]) == pytest.approx(
+        np.polyfit(np.log(N), np.log(e1), 1)[0], abs=5e-4)
+    e16 = df[df.m == 16].error.to_numpy()[:3]
+    assert float(fits["16× (τ/16)"].split("|")[2]) == pytest.approx(
+        np.polyfit(np.log(N[:3]), np.log(e16), 1)[0], abs=5e-4)
+    share = 1 - (e16[0] / e1[0]) ** 2
+    assert f"{share:.4g}" in lines[5]           # pass 0's row of the second table
+    assert "-0.323" in page and "1 − (e(τ/16)/e)²" in page

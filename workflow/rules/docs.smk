@@ -29,6 +29,7 @@ rule results_page:
         rules.parabolic_summary.output,
         rules.para_reference_check.output.md,
         rules.ex5_uniform_cause.output.md,
+        expand(rules.para_time_split.output.md, problem=PARA["time_split"]["problems"]),
         rules.benchmark_assembly.output.md,
         rules.bad_inputs.output.md,
     output:

@@ -304,6 +304,46 @@ rule ex5_uniform_cause:
         "../scripts/ex5_uniform_cause.py"
 
 
+# How much of Algorithm C's error is the time discretisation's: its passes solved again on
+# their own space-time meshes with m times the time steps (fracfem.solve_slabs)
+rule para_time_split:
+    input:
+        ref=para_reference,
+        errors=rules.para_errors.output.csv,
+    output:
+        md=report(
+            f"{OUT}/{{problem}}-time-split.md",
+            caption="../../report/captions/time-split.rst",
+            category="Example 5 (parabolic friction)",
+            subcategory="Tables",
+        ),
+        csv=f"{RES}/para/{{problem}}/adaptive/time-split.csv",
+    wildcard_constraints:
+        problem="|".join(PARA_PROBLEMS),
+    params:
+        example=para_example,
+        data=para_data,
+        T=PARA["T"],
+        theta=PARA["adaptive"]["theta"],
+        start_level=PARA["adaptive"]["start_level"],
+        c_tau=PARA["adaptive"]["c_tau"],
+        max_spacetime_dofs=PARA["time_split"]["max_spacetime_dofs"],
+        max_iterations=PARA["adaptive"]["max_iterations"],
+        refinements=PARA["time_split"]["refinements"],
+        operator=PARA["adaptive"]["operator"],
+        tol=SOLVER["tol"],
+        quadrature=PARA_QUADRATURE,
+    log:
+        f"{RES}/logs/para/{{problem}}_time_split.log",
+    benchmark:
+        f"{RES}/benchmarks/para/{{problem}}_time_split.tsv"
+    threads: 2
+    conda:
+        ENV
+    script:
+        "../scripts/para_time_split.py"
+
+
 # `snakemake --cores 2 para_reference_large --forcerun para_solve`: recompute the reference
 # runs of Examples 4, 5 and replace their committed copies (parabolic.reference.committed;
 # the input files, not outputs of this rule: a fresh clone uses the copies as they are)

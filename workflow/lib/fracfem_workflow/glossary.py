@@ -191,6 +191,22 @@ GROUPS = [
                        "`spacetime_dofs`) from the previous run of the series",
         "last local slope": "`local slope` of the finest run",
     }),
+    ("Time split of Algorithm C's error (`<problem>-time-split.md`)", False, {
+        "time steps": "each pass with its own time steps, or with m times as many on every "
+                      "slab (τ/m), the space meshes unchanged",
+        "fitted passes": "the passes in the fit (error above 3× `reference_error`)",
+        "pass": "pass of Algorithm C; `spacetime_dofs`, `steps`, `dofs` are its own (m = 1)",
+        ("error (τ/4)", "error (τ/16)"): "`error` of the pass's space meshes with m = 4, 16 "
+                                         "times the time steps",
+        ("local slope (τ/4)", "local slope (τ/16)"): "`local slope` of that error against "
+                                                     "the pass's `spacetime_dofs`",
+        "1 − (e(τ/16)/e)²": "the part of the pass's squared error that refining its time "
+                            "steps 16-fold removes",
+        "m": "`time-split.csv`: the factor of the time steps (1: the pass itself)",
+        "pass_spacetime_dofs": "`time-split.csv`: the pass's own `spacetime_dofs`",
+        "t_resolve": "`time-split.csv`: seconds to solve and estimate the pass again with m "
+                     "times the steps (m = 1: the pass's own time)",
+    }),
     ("Stability (`stability.md`, `stability-vi.md`)", False, {
         "case": "what was run",
         "status": "`ok`, or `refused:` and the error the library raised",

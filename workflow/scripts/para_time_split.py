@@ -1,0 +1,120 @@
+"""How much of Algorithm C's error is the time discretisation's: each pass solved again on
+its own space-time mesh with m times the time steps of every slab, the space meshes kept
+(fracfem.solve_slabs).  One change (τ → τ/m), so the error that remains is the space
+meshes' share, and the rate of that remainder over the passes is the rate the space
+refinement alone achieves.
+"""
+import time
+
+import numpy as np
+import pandas as pd
+
+import fracfem as ff
+from fracfem.transfer import SpaceTimeReference
+from fracfem_workflow.io import atomic_path, with_provenance, write_table
+from fracfem_workflow.logs import script_logger
+from fracfem_workflow.report import fit_mask, local_slopes, masked_rate, paper_rate
+from fracfem_workflow.runs import parabolic_pieces, parameter_columns, start
+
+logger = script_logger("para_time_split")
+
+
+def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
+         max_iterations, refinements, tol, quadrature, ref, errors, csv, md, log=None,
+         threads=None, operator="dense"):
+    """refinements: the factors m (1 is always included: the pass itself); ref: the
+    reference run; errors: the problem's errors.csv (its ``reference_error``)."""
+    start(log, threads)
+    refinements = sorted({int(m) for m in refinements} | {1})
+    quad = ff.QuadratureOptions(**quadrature)
+    ex = ff.example(example, **data)
+    ref_error = float(pd.read_csv(errors).reference_error.max())
+    ref_pieces, d = parabolic_pieces(ref)
+    s = float(d["s"])
+    ref_disc = ff.discretise(ref_pieces[0][2], s, 0.0, quadrature=quad, operator="auto")
+    reference = SpaceTimeReference(ref_pieces, ref_disc.A, ref_disc.free)
+
+    def make(coarse):
+        return ex.problem(coarse, quad, operator=operator)
+
+    rows = []
+
+    def record(rec):
+        for m in refinements:
+            t0 = time.perf_counter()
+            run = rec if m == 1 else ff.solve_slabs(
+                make, rec.slabs, ex.initial_value, T=T, time_refinement=m, solver="pdas",
+                solver_options={"tol": tol}, iteration=rec.iteration)
+            t_solve = time.perf_counter() - t0
+            err = reference.distance(run.pieces)
+            rows.append({"problem": problem, "pass": rec.iteration, "m": m,
+                         "pass_spacetime_dofs": rec.dofs, "spacetime_dofs": run.dofs,
+                         "steps": int(sum(sl.n_steps for sl in run.slabs)),
+                         "dofs": max(sl.n_free for sl in run.slabs), "error": err,
+                         "eta": run.eta, "eta2_time": run.eta_parts["time"],
+                         "t_resolve": t_solve if m > 1 else rec.timings.get("total", np.nan)})
+            logger.info("pass %d, m = %d: %d space-time DOFs, error %.4e, eta %.4e",
+                        rec.iteration, m, run.dofs, err, run.eta)
+            run.pieces = None
+        rec.pieces = None
+        return rec.dofs >= max_spacetime_dofs
+
+    ff.algorithm_c(make, ff.disk_uniform(start_level), ex.initial_value, T=T, theta=theta,
+                   iterations=max_iterations, c_tau=c_tau, marking="maximum", solver="pdas",
+                   callback=record, keep_steps=True, solver_options={"tol": tol})
+    df = pd.DataFrame(rows)
+    df["reference_error"] = ref_error
+    write_table(with_provenance(df.assign(**parameter_columns(
+        quadrature=quad, T=T, theta=theta, c_tau=c_tau, start_level=start_level,
+        solver="pdas", tol=tol, operator=operator, refinements=refinements,
+        data=data))), csv)
+    paper = paper_rate(int(example[2:]), "adaptive", s, problem[4:] if example == "ex4" else "")
+    with atomic_path(md) as tmp:
+        tmp.write_text(report(df, ref_error, refinements, paper))
+
+
+def report(df, ref_error, refinements, paper=None) -> str:
+    """The Markdown page: per pass the error with τ and with τ/m, the share of e² that
+    the time refinement removes, local slopes against the pass's space-time DOFs, and
+    the rates over the passes above 3× the reference's own error."""
+    wide = df.pivot(index="pass", columns="m", values="error")
+    own = df[df.m == 1].set_index("pass")
+    out = own[["spacetime_dofs", "steps", "dofs"]].astype(int)
+    rates = []
+    for m in refinements:
+        e = wide[m]
+        out[f"error (τ/{m})" if m > 1 else "error"] = e
+        out[f"local slope (τ/{m})" if m > 1 else "local slope"] = local_slopes(
+            out.spacetime_dofs, e, np.zeros(len(e))).to_numpy()
+        keep = fit_mask(e, ref_error)
+        rates.append({"time steps": "as the pass" if m == 1 else f"{m}× (τ/{m})",
+                      "rate": masked_rate(out.spacetime_dofs, e, keep),
+                      "n_points": int(keep.sum()), "fitted passes": ", ".join(
+                          str(p) for p in np.asarray(e.index)[keep])})
+    m_max = max(refinements)
+    if m_max > 1:
+        out[f"1 − (e(τ/{m_max})/e)²"] = 1 - (wide[m_max] / wide[1]) ** 2
+    head = ("Algorithm C's passes solved again on their own space-time meshes with m times "
+            "the time steps of every slab (the space meshes unchanged), errors against the "
+            f"reference (its own error {ref_error:.3g}); rates against the pass's space-time "
+            "DOFs over the passes whose error exceeds 3× the reference's")
+    if paper is not None:
+        head += f"; the paper's adaptive rate is {paper:g}"
+    return (head + ".\n\n" + pd.DataFrame(rates).to_markdown(index=False, floatfmt=".3f")
+            + "\n\n" + _ints_as_ints(out.reset_index()).to_markdown(index=False,
+                                                                        floatfmt=".4g")
+            + "\n")
+
+
+def _ints_as_ints(df):
+    """Integer columns as Python ints, so that the all-numeric frame is not printed as floats."""
+    return df.astype({c: object for c in df.columns if pd.api.types.is_integer_dtype(df[c])})
+
+
+if __name__ == "__main__":
+    sm = snakemake  # noqa: F821
+    main(sm.wildcards.problem, sm.params.example, sm.params.data, sm.params.T,
+         sm.params.theta, sm.params.start_level, sm.params.c_tau,
+         sm.params.max_spacetime_dofs, sm.params.max_iterations, sm.params.refinements,
+         sm.params.tol, sm.params.quadrature, sm.input.ref, sm.input.errors, sm.output.csv,
+         sm.output.md, sm.log[0], sm.threads, sm.params.operator)
