@@ -36,7 +36,7 @@ REASONS = {(1, "graded"): "the local slopes of our series approach the theoretic
                             "much of e² is the time discretisation's, which Algorithm C's "
                             "slab bisection removes at first order in τ, while the space "
                             "meshes' share hardly falls; the fitted rate is that of the "
-                            "time error's removal, before space and time balance. "
+                            "time error's removal, before space and time balance; and "
                             + REF_PARA,
            (5, "uniform"): "ex5-uniform-rate.md changes one thing at a time: without "
                            "friction the local slopes stay within a few per cent of "
