@@ -113,7 +113,7 @@ class _Settings:
     solver_options: dict | None
     time_quadrature: int
     order: int
-    c_tau: float
+    c_tau: float | None              # None: each slab keeps its own n_steps (solve_slabs)
     n_min: int
     outs: list                       # output times, sorted
     est_opts: dict                   # keywords of step_indicators
@@ -130,9 +130,10 @@ def _stepper(slab, cache: OrderedDict, make_problem, cache_bytes: float) -> Step
 
     ``cache``: id(coarse) → (coarse, Stepper), least recently used first; slabs
     sharing a mesh share one entry.  After an insertion, and again after each
-    slab's steps (which add factorisations or preconditioners for new τ), the
-    least recently used entries other than the newest are dropped until the
-    steppers hold at most ``cache_bytes`` (:attr:`Stepper.nbytes`).
+    slab's steps (:func:`_sweep`: they add factorisations or preconditioners
+    for new τ), the least recently used entries other than the newest are
+    dropped until the steppers hold at most ``cache_bytes``
+    (:attr:`Stepper.nbytes`).
     """
     key = id(slab.coarse)
     if key in cache:
@@ -385,16 +386,17 @@ def solve_slabs(make_problem, slabs, u0, *, T: float, time_refinement: int = 1,
     """SOLVE and ESTIMATE on a given space-time mesh, its time steps refined.
 
     ``slabs``: the :class:`Slab` list of a pass of Algorithm C
-    (``IterationRecord.slabs``): contiguous, covering [0, T], each solved
-    (``n_steps`` ≥ 1).  Each slab keeps its coarse mesh (so its fine mesh) and
-    gets ``time_refinement`` × its ``n_steps`` uniform steps; everything else is
-    as in :func:`algorithm_c`, whose keywords these are.  The input slabs are
-    not changed.  ``time_refinement`` = 1 repeats the pass; larger values
-    separate the time discretisation's share of the error from the space
-    meshes' (the space meshes stay, τ falls).
+    (``IterationRecord.slabs``), or slabs set up by hand: contiguous, covering
+    [0, T], each with ``n_steps`` ≥ 1.  Each slab keeps its coarse mesh (so its
+    fine mesh) and gets ``time_refinement`` × its ``n_steps`` uniform steps;
+    everything else is as in :func:`algorithm_c`, whose keywords these are,
+    except that ``keep_steps`` defaults to True (the steps are what one
+    measures).  The input slabs are not changed.  ``time_refinement`` = 1
+    repeats the pass; larger values separate the time discretisation's part of
+    the error from the rest (the space meshes stay, τ falls).
 
-    Returns the :class:`IterationRecord` of the pass (``marked`` None),
-    ``iteration`` its number.
+    Returns the :class:`IterationRecord` of the pass (``marked`` None,
+    ``timings`` with ``total``), ``iteration`` its number.
     """
     time_refinement = _positive_int("time_refinement", time_refinement)
     run = _settings(T=T, u0=u0, f=f, f_time=f_time, solver=solver,
@@ -406,7 +408,7 @@ def solve_slabs(make_problem, slabs, u0, *, T: float, time_refinement: int = 1,
         raise ValueError("slabs must be a non-empty list of Slab (IterationRecord.slabs)")
     ends = np.array([[sl.a, sl.b] for sl in slabs], dtype=float)
     gaps = np.abs(ends[1:, 0] - ends[:-1, 1])
-    if (abs(ends[0, 0]) > 1e-12 * run.T or abs(ends[-1, 1] - run.T) > 1e-12 * run.T
+    if (not np.all(np.isfinite(ends)) or abs(ends[0, 0]) > 1e-12 * run.T or abs(ends[-1, 1] - run.T) > 1e-12 * run.T
             or np.any(gaps > 1e-12 * run.T) or np.any(ends[:, 1] <= ends[:, 0])):
         raise ValueError(f"slabs must be contiguous and cover [0, T] = [0, {run.T}]; "
                          f"got [a, b] = {ends.tolist()}")
@@ -415,10 +417,12 @@ def solve_slabs(make_problem, slabs, u0, *, T: float, time_refinement: int = 1,
     if bad:
         raise ValueError(f"slabs {bad} have n_steps < 1: pass the slabs of a solved pass")
     cache_bytes = _cache_bytes(cache_bytes)
+    t_start = time.perf_counter()
     mine = [Slab(sl.a, sl.b, sl.coarse, n_steps=time_refinement * int(sl.n_steps))
             for sl in slabs]
     sweep = _sweep(run, mine, OrderedDict(), make_problem, cache_bytes)
     rec = sweep.record(iteration, mine)
+    rec.timings["total"] = time.perf_counter() - t_start
     logger.info("solve_slabs: %d slabs, %d time steps (× %d), %d space-time DOFs, eta %.4e",
                 len(mine), sum(sl.n_steps for sl in mine), time_refinement, rec.dofs, rec.eta)
     return rec

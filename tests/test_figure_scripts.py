@@ -232,16 +232,26 @@ def test_time_split_page_fits_each_refinement_through_the_passes_above_the_margi
     df = pd.DataFrame(rows)
     ref_error = df[(df["pass"] == 3) & (df.m == 16)].error.iloc[0] / 2.9   # pass 3 of τ/16 out
     page = split.report(df, ref_error, [1, 4, 16], paper=-0.323)
-    lines = [ln for ln in page.splitlines() if ln.startswith("| ")]
-    fits = {ln.split("|")[1].strip(): ln for ln in lines[1:4]}
-    assert fits["16× (τ/16)"].split("|")[4].strip() == "0, 1, 2"
-    assert fits["as the pass"].split("|")[4].strip() == "0, 1, 2, 3"
-    e1 = df[df.m == 1].error.to_numpy()
-    assert float(fits["as the pass"].split("|")[2]) == pytest.approx(
-        np.polyfit(np.log(N), np.log(e1), 1)[0], abs=5e-4)
-    e16 = df[df.m == 16].error.to_numpy()[:3]
-    assert float(fits["16× (τ/16)"].split("|")[2]) == pytest.approx(
-        np.polyfit(np.log(N[:3]), np.log(e16), 1)[0], abs=5e-4)
-    share = 1 - (e16[0] / e1[0]) ** 2
-    assert f"{share:.4g}" in lines[5]           # pass 0's row of the second table
+    tables = [[[c.strip() for c in ln.strip().strip("|").split("|")] for ln in block]
+              for block in (b.splitlines() for b in page.split("\n\n"))
+              if block and block[0].startswith("| ")]
+    (head1, _, *fits), (head2, _, *rows) = tables
+    fits = {r[0]: dict(zip(head1, r)) for r in fits}
+    rows = [dict(zip(head2, r)) for r in rows]
+    e = {m: df[df.m == m].error.to_numpy() for m in (1, 4, 16)}
+    keep = {m: e[m] > 3 * ref_error for m in (1, 4, 16)}
+    assert keep[1].tolist() == [True] * 4 and keep[16].tolist() == [True, True, True, False]
+    for m, label in ((1, "as the pass"), (4, "4× (τ/4)"), (16, "16× (τ/16)")):
+        assert fits[label]["fitted passes"] == ", ".join(str(p) for p in np.flatnonzero(keep[m]))
+        slope = np.polyfit(np.log(N[keep[m]]), np.log(e[m][keep[m]]), 1)[0]
+        assert float(fits[label]["rate"]) == pytest.approx(slope, abs=5e-4)
+    for p, row in enumerate(rows):
+        assert int(row["spacetime_dofs"]) == N[p]
+        assert float(row["error (τ/4)"]) == pytest.approx(e[4][p], rel=1e-3)
+        assert float(row["error (τ/16)"]) == pytest.approx(e[16][p], rel=1e-3)
+        assert float(row["1 − (e(τ/16)/e)²"]) == pytest.approx(1 - (e[16][p] / e[1][p]) ** 2,
+                                                              rel=1e-3)
+        if p:
+            assert float(row["local slope (τ/16)"]) == pytest.approx(
+                np.log(e[16][p] / e[16][p - 1]) / np.log(N[p] / N[p - 1]), rel=1e-3)
     assert "-0.323" in page and "1 − (e(τ/16)/e)²" in page

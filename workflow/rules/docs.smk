@@ -32,6 +32,8 @@ rule results_page:
         expand(rules.para_time_split.output.md, problem=PARA["time_split"]["problems"]),
         rules.benchmark_assembly.output.md,
         rules.bad_inputs.output.md,
+    params:
+        time_split=PARA["time_split"]["problems"],
     output:
         md=report(
             f"{OUT}/RESULTS.md",

@@ -314,8 +314,8 @@ rule para_time_split:
         md=report(
             f"{OUT}/{{problem}}-time-split.md",
             caption="../../report/captions/time-split.rst",
-            category="Example 5 (parabolic friction)",
-            subcategory="Tables",
+            category="Across examples",
+            subcategory="Examples 4 and 5",
         ),
         csv=f"{RES}/para/{{problem}}/adaptive/time-split.csv",
     wildcard_constraints:

@@ -8,7 +8,7 @@ from pathlib import Path
 from fracfem_workflow.io import atomic_path
 
 # (heading, intro, figures, tables): figures and tables by file name in the figure root (a
-# table name with "*" stands for every file it matches there, sorted; none is fine).
+# table name with "{problem}" stands for one file per problem of parabolic.time_split).
 SECTIONS = [
     ("Example 1: the exact solution (s = 0.5 and the configured orders)",
      "Energy error ‖u − u_h‖ = ((f,u) − (f,u_h))^½ against the exact energy, on uniform, "
@@ -47,7 +47,7 @@ SECTIONS = [
       "fig12-ex4-spacetime-meshes.png", "fig13-ex4-error.png", "fig14-ex5-solution.png",
       "fig15-ex5-error.png", "extra-parabolic-error-vs-time.png"],
      ["parabolic-runs.md", "ex5-free-boundary.md", "ex5-uniform-rate.md",
-      "*-time-split.md", "parabolic-reference-check.md"]),
+      "{problem}-time-split.md", "parabolic-reference-check.md"]),
     ("Assembly benchmark",
      "Example 1, s = 0.5, uniform disks, warm numba cache; `floor_s` is one kernel "
      "evaluation per unordered element pair in the same process.",
@@ -66,8 +66,9 @@ TITLE = ("# Results\n\nEvery figure and table of the last `snakemake` run in thi
          "benchmark_compressed`).\n")
 
 
-def render(root):
-    """The page's text from the files in `root`; a missing file is an error."""
+def render(root, problems=()):
+    """The page's text from the files in `root`; a missing file is an error.
+    problems: those of the tables named with "{problem}", in order."""
     root = Path(root)
     parts = [TITLE]
     for heading, intro, figures, tables in SECTIONS:
@@ -77,19 +78,19 @@ def render(root):
                 raise FileNotFoundError(f"{root / name} is missing: run its rule first")
             parts.append(f"\n![{name}]({name})\n")
         for entry in tables:
-            # a pattern: the tables of the problems configured (parabolic.time_split), maybe none
-            names = sorted(p.name for p in root.glob(entry)) if "*" in entry else [entry]
+            names = [entry.format(problem=p) for p in problems] if "{" in entry else [entry]
             for name in names:
                 text = (root / name).read_text().strip()
                 parts.append(f"\n### `{name}`\n\n{text}\n")
     return "".join(parts)
 
 
-def main(root, out):
-    text = render(root)
+def main(root, out, problems=()):
+    text = render(root, problems)
     with atomic_path(out) as tmp:
         tmp.write_text(text)
 
 
 if __name__ == "__main__":
-    main(Path(snakemake.output.md).parent, snakemake.output.md)  # noqa: F821
+    main(Path(snakemake.output.md).parent, snakemake.output.md,  # noqa: F821
+         snakemake.params.time_split)  # noqa: F821
