@@ -408,8 +408,10 @@ def solve_slabs(make_problem, slabs, u0, *, T: float, time_refinement: int = 1,
         raise ValueError("slabs must be a non-empty list of Slab (IterationRecord.slabs)")
     ends = np.array([[sl.a, sl.b] for sl in slabs], dtype=float)
     gaps = np.abs(ends[1:, 0] - ends[:-1, 1])
-    if (not np.all(np.isfinite(ends)) or abs(ends[0, 0]) > 1e-12 * run.T or abs(ends[-1, 1] - run.T) > 1e-12 * run.T
-            or np.any(gaps > 1e-12 * run.T) or np.any(ends[:, 1] <= ends[:, 0])):
+    tol = 1e-12 * run.T
+    if (not np.all(np.isfinite(ends)) or abs(ends[0, 0]) > tol
+            or abs(ends[-1, 1] - run.T) > tol or np.any(gaps > tol)
+            or np.any(ends[:, 1] <= ends[:, 0])):
         raise ValueError(f"slabs must be contiguous and cover [0, T] = [0, {run.T}]; "
                          f"got [a, b] = {ends.tolist()}")
     bad = [j for j, sl in enumerate(slabs) if not (isinstance(sl.n_steps, numbers.Integral)

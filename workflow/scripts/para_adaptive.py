@@ -5,10 +5,9 @@ import numpy as np
 import pandas as pd
 
 import fracfem as ff
-from fracfem.transfer import SpaceTimeReference
 from fracfem_workflow.io import peak_memory_mb, save_arrays, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.runs import parabolic_pieces, parameter_columns, start
+from fracfem_workflow.runs import parameter_columns, start, stored_reference
 
 logger = script_logger("para_adaptive")
 
@@ -23,13 +22,8 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
     obstacle = example == "ex4"
-    ref_pieces, d = parabolic_pieces(ref)
-    s = float(d["s"])
-    logger.info("reference solution %s: %d time steps on %d nodes; assembling its matrix",
-                ref, len(ref_pieces), ref_pieces[0][2].p.shape[1])
     t0 = time.perf_counter()
-    ref_disc = ff.discretise(ref_pieces[0][2], s, 0.0, quadrature=quad, operator="auto")
-    reference = SpaceTimeReference(ref_pieces, ref_disc.A, ref_disc.free)
+    reference, s = stored_reference(ref, quad)
     t_ref = time.perf_counter() - t0
     rows, arrays, t_start = [], {}, time.perf_counter()
     keep = {int(k) for k in figure_iterations}

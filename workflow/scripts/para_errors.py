@@ -18,11 +18,10 @@ import numpy as np
 import pandas as pd
 
 import fracfem as ff
-from fracfem.transfer import SpaceTimeReference
 from fracfem_workflow.io import write_table
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import reference_family_error
-from fracfem_workflow.runs import parabolic_pieces, start
+from fracfem_workflow.runs import parabolic_pieces, start, stored_reference
 
 logger = script_logger("para_errors")
 
@@ -30,21 +29,17 @@ logger = script_logger("para_errors")
 def reference_error(ref, coarser, quadrature):
     """(SpaceTimeReference of the reference run, its info: the measured error and the
     distances behind it); coarser: the family's two coarser runs."""
-    ref_pieces, d = parabolic_pieces(ref)
-    s = float(d["s"])
     quad = ff.QuadratureOptions(**quadrature)
-    logger.info("reference solution %s: %d time steps on %d nodes; assembling its operator",
-                ref, len(ref_pieces), ref_pieces[0][2].p.shape[1])
-    disc = ff.discretise(ref_pieces[0][2], s, 0.0, quadrature=quad, operator="auto")
-    reference = SpaceTimeReference(ref_pieces, disc.A, disc.free)
+    reference, s = stored_reference(ref, quad)
     u1, _ = parabolic_pieces(coarser[0])
     u2, _ = parabolic_pieces(coarser[1])
     disc2 = ff.discretise(u2[0][2], s, 0.0, quadrature=quad, operator="auto")
     fam = reference_family_error(u1, (u2, disc2.A, disc2.free), reference)
     logger.info("reference family: d12 = %.4e, d23 = %.4e, ratio %.3f: reference error "
                 "%.4e", fam["d12"], fam["d23"], fam["ratio"], fam["error"])
-    info = {"reference_spacetime_dofs": len(disc.free) * len(ref_pieces),
-            "reference_dofs": len(disc.free), "reference_steps": len(ref_pieces),
+    n_free, n_steps = len(reference.free), len(reference.values)
+    info = {"reference_spacetime_dofs": n_free * n_steps,
+            "reference_dofs": n_free, "reference_steps": n_steps,
             **{f"reference_{k}": v for k, v in fam.items()}}
     return reference, info
 

@@ -10,11 +10,10 @@ import numpy as np
 import pandas as pd
 
 import fracfem as ff
-from fracfem.transfer import SpaceTimeReference
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import fit_mask, local_slopes, masked_rate, paper_rate
-from fracfem_workflow.runs import parabolic_pieces, parameter_columns, start
+from fracfem_workflow.runs import parameter_columns, start, stored_reference
 
 logger = script_logger("para_time_split")
 # the re-solves' own cache, beside Algorithm C's (which keeps its default)
@@ -31,10 +30,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
     ref_error = float(pd.read_csv(errors).reference_error.max())
-    ref_pieces, d = parabolic_pieces(ref)
-    s = float(d["s"])
-    ref_disc = ff.discretise(ref_pieces[0][2], s, 0.0, quadrature=quad, operator="auto")
-    reference = SpaceTimeReference(ref_pieces, ref_disc.A, ref_disc.free)
+    reference, s = stored_reference(ref, quad)
 
     def make(coarse):
         return ex.problem(coarse, quad, operator=operator)

@@ -84,6 +84,22 @@ def parameter_names(columns) -> list[str]:
     return [c for c in columns if c in PARAMETERS or c.startswith("quadrature_")]
 
 
+def stored_reference(npz, quadrature):
+    """(SpaceTimeReference, s) of a stored parabolic reference run: its pieces and its
+    operator on the free nodes ('auto': compressed when large) to measure runs against;
+    quadrature: the fracfem.QuadratureOptions of the runs it judges."""
+    import fracfem as ff
+    from fracfem.transfer import SpaceTimeReference
+
+    pieces, d = parabolic_pieces(npz)
+    s = float(d["s"])
+    logging.getLogger("fracfem_workflow").info(
+        "reference solution %s: %d time steps on %d nodes; assembling its operator",
+        npz, len(pieces), pieces[0][2].p.shape[1])
+    disc = ff.discretise(pieces[0][2], s, 0.0, quadrature=quadrature, operator="auto")
+    return SpaceTimeReference(pieces, disc.A, disc.free), s
+
+
 def parabolic_pieces(npz):
     """[(t_{k−1}, t_k, mesh, u_k)] of a stored parabolic run, and the loaded file."""
     from skfem import MeshTri
