@@ -33,7 +33,8 @@ REASONS = {(1, "graded"): "the local slopes of our series approach the theoretic
            (4, "adaptive"): "ex4-u1-time-split.md and ex4-u2-time-split.md solve each pass "
                             "again with more time steps, the space meshes kept: unlike in "
                             "Example 5 the time steps carry a small share of the squared "
-                            "error (`1 − (e(τ/16)/e)²`), so the error is the space meshes'; "
+                            "error (`1 − (e(τ/16)/e)²`), so what remains is the space meshes' "
+                            "error and the reference's; "
                             "the passes' local slopes steepen after the first pass, but the "
                             "steeper passes lie within 3× the reference's own error and are "
                             "left out; and " + REF_PARA,
