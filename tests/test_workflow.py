@@ -177,3 +177,24 @@ def test_rate_table_reads_another_tier_only_where_it_exists(tmp_path):
                       "--", f"{tmp_path}/o/rates.csv")
     rates = text.split("rule rates:")[1].split("output:")[0]
     assert f"{tmp_path}/other.csv" in rates and "nothing.csv" not in rates
+
+
+@pytest.mark.parametrize("choice, expected", [
+    ({"graded-sr": 0.2}, "ex1-quadrature/uniform/s0.5/L6.csv"),   # not named: the finest
+    ({"graded-sr": 0.2}, "ex1-quadrature/graded-sr/s0.5/r0.2.csv"),
+    ({"graded-sr": 0.15}, "must be a member of example1.graded_sr_h"),
+])
+def test_quadrature_check_mesh(tmp_path, choice, expected):
+    """example1.quadrature_check names the mesh a family's quadrature check repeats; a value
+    outside the family's series is refused before any job runs."""
+    import yaml
+    cfg = tmp_path / "q.yaml"
+    ex1 = yaml.safe_load((ROOT / "config.yaml").read_text())["example1"]
+    cfg.write_text(yaml.safe_dump({"example1": {**ex1, "quadrature_check": choice},
+                                   "results_dir": f"{tmp_path}/r",
+                                   "output_root": f"{tmp_path}/o"}))
+    code, text = dry_run("--configfile", str(cfg), "--", f"{tmp_path}/o/ex1-quadrature-check.md",
+                         ok=not expected.startswith("must"))
+    assert expected in text
+    if expected.startswith("must"):
+        assert code != 0

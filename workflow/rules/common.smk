@@ -139,6 +139,21 @@ def last_tag(block, family):
     return [tag for fam, tag in series(block) if fam == family][-1]
 
 
+def quadrature_check_tag(block, family):
+    """The tag of the run a family's quadrature check repeats: the family's finest, or the
+    member named in the block's ``quadrature_check`` (which must be one of the series)."""
+    chosen = block.get("quadrature_check", {})
+    if family not in chosen:
+        return last_tag(block, family)
+    tag = series_tag(family, chosen[family])
+    members = [t for fam, t in series(block) if fam == family]
+    if tag not in members:
+        raise ValueError(f"config example1.quadrature_check.{family}={chosen[family]!r} must be "
+                         f"a member of example1.{SERIES_KEYS[family]}="
+                         f"{block.get(SERIES_KEYS[family])!r}")
+    return tag
+
+
 def ex1_runs(s_list, key="row"):
     """Example 1's uniform and graded runs for every s of s_list."""
     return [path(getattr(rules.ex1_solve.output, key), family=fam, s=fmt(s), tag=tag)

@@ -157,7 +157,7 @@ rule ex1_quadrature_check:
 rule ex1_quadrature_table:
     input:
         rows=[path(rules.ex1_quadrature_check.output.row, family=fam, s=fmt(EX1["s"]),
-                   tag=last_tag(EX1, fam))
+                   tag=quadrature_check_tag(EX1, fam))
               for fam in families(EX1)],
     output:
         md=report(
