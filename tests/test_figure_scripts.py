@@ -5,6 +5,7 @@ import importlib.util
 from pathlib import Path
 
 import json
+import re
 
 import numpy as np
 import pandas as pd
@@ -255,3 +256,42 @@ def test_time_split_page_fits_each_refinement_through_the_passes_above_the_margi
             assert float(row["local slope (τ/16)"]) == pytest.approx(
                 np.log(e[16][p] / e[16][p - 1]) / np.log(N[p] / N[p - 1]), rel=1e-3)
     assert "-0.323" in page and "1 − (e(τ/16)/e)²" in page
+
+
+def test_rate_explanations_cite_only_the_time_split_tables_made():
+    """The rate table explains a parabolic adaptive row by its time-split table only where
+    parabolic.time_split.problems makes that table; otherwise by the reference alone."""
+    rates = script("rates")
+    rows = pd.DataFrame({"example": [4, 4, 5], "variant": ["u1", "u2", ""],
+                         "family": ["adaptive"] * 3, "rate": [-0.15, -0.15, -0.49],
+                         "paper_rate": [-0.319, -0.319, -0.323], "n_points": [2, 2, 4],
+                         "n_excluded": [0, 0, 0]})
+    made = rates.differences(rows, time_split=["ex4-u2", "ex5"])
+    assert "time-split" not in made[0] and rates.REF_PARA in made[0]
+    assert "`ex4-u2-time-split.md`" in made[1] and "ex4-u1" not in made[1]
+    assert "`ex5-time-split.md`" in made[2]
+    assert not any("time-split" in line for line in rates.differences(rows))
+
+
+def test_pipeline_cost_sums_the_jobs_of_all_and_reads_gnu_time(tmp_path):
+    """The cost table's total leaves out the jobs outside `all` (stability); the wall time
+    and peak memory come from /usr/bin/time -v's own lines."""
+    cost = script("pipeline_cost")
+    bench = tmp_path / "results" / "benchmarks"
+    for rel, s, rss in [("ex1/a.tsv", 30.0, 100.0), ("para/b.tsv", 90.0, 300.0),
+                        ("stability.tsv", 1000.0, 5000.0)]:
+        (bench / rel).parent.mkdir(parents=True, exist_ok=True)
+        (bench / rel).write_text(f"s\tmax_rss\n{s}\t{rss}\n")
+    log = tmp_path / "time.log"
+    log.write_text("\tCommand being timed: \"snakemake --cores 2\"\n"
+                   "\tElapsed (wall clock) time (h:mm:ss or m:ss): 1:02:03\n"
+                   "\tMaximum resident set size (kbytes): 2097152\n")
+    assert cost.gnu_time(log) == (3723.0, 2048.0)
+    cost.main(tmp_path / "results", tmp_path, log)
+    text = (tmp_path / "pipeline-cost.md").read_text()
+    assert "1 h 02 min 03 s wall time" in text and "2.00 GB" in text
+    assert "sum to 2 minutes" in text
+    assert re.search(r"total of `all`\s+\|\s+2 \|\s+120\.0 \|\s+300\.0", text)
+    log.write_text("not a time log\n")
+    with pytest.raises(SystemExit, match="time -v"):
+        cost.gnu_time(log)

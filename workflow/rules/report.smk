@@ -25,6 +25,7 @@ rule rates:
         tier=TIER,
         tiers=other_tiers(),
         absent=[n for n in config.get("tiers", {}) if n != TIER and n not in other_tiers()],
+        time_split=PARA["time_split"]["problems"],   # the tables the explanations may cite
     log:
         f"{RES}/logs/rates.log",
     benchmark:
