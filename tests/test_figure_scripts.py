@@ -274,12 +274,13 @@ def test_rate_explanations_cite_only_the_time_split_tables_made():
 
 
 def test_pipeline_cost_sums_the_jobs_of_all_and_reads_gnu_time(tmp_path):
-    """The cost table's total leaves out the jobs outside `all` (stability); the wall time
-    and peak memory come from /usr/bin/time -v's own lines."""
+    """The cost table's total counts only the jobs of `all` (not a benchmark outside it, not
+    a file left by an earlier configuration); the wall time and peak memory come from
+    /usr/bin/time -v's own lines, in either of its formats."""
     cost = script("pipeline_cost")
     bench = tmp_path / "results" / "benchmarks"
     for rel, s, rss in [("ex1/a.tsv", 30.0, 100.0), ("para/b.tsv", 90.0, 300.0),
-                        ("stability.tsv", 1000.0, 5000.0)]:
+                        ("stability.tsv", 1000.0, 5000.0), ("ex1/old.tsv", 475.0, 4000.0)]:
         (bench / rel).parent.mkdir(parents=True, exist_ok=True)
         (bench / rel).write_text(f"s\tmax_rss\n{s}\t{rss}\n")
     log = tmp_path / "time.log"
@@ -287,11 +288,15 @@ def test_pipeline_cost_sums_the_jobs_of_all_and_reads_gnu_time(tmp_path):
                    "\tElapsed (wall clock) time (h:mm:ss or m:ss): 1:02:03\n"
                    "\tMaximum resident set size (kbytes): 2097152\n")
     assert cost.gnu_time(log) == (3723.0, 2048.0)
-    cost.main(tmp_path / "results", tmp_path, log)
+    cost.main(tmp_path / "results", tmp_path, log, in_all={"ex1/a.tsv", "para/b.tsv"})
     text = (tmp_path / "pipeline-cost.md").read_text()
-    assert "1 h 02 min 03 s wall time" in text and "2.00 GB" in text
+    assert "1 h 02 min 03 s wall time" in text and "2.00 GiB" in text
     assert "sum to 2 minutes" in text
     assert re.search(r"total of `all`\s+\|\s+2 \|\s+120\.0 \|\s+300\.0", text)
+    assert re.search(r"not in `all`\s+\|\s+2 \|\s+1475\.0", text)
+    log.write_text("\tElapsed (wall clock) time (h:mm:ss or m:ss): 2:03.45\n"
+                   "\tMaximum resident set size (kbytes): 1024\n")
+    assert cost.gnu_time(log) == pytest.approx((123.45, 1.0))
     log.write_text("not a time log\n")
     with pytest.raises(SystemExit, match="time -v"):
         cost.gnu_time(log)

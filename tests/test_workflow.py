@@ -179,25 +179,29 @@ def test_rate_table_reads_another_tier_only_where_it_exists(tmp_path):
     assert f"{tmp_path}/other.csv" in rates and "nothing.csv" not in rates
 
 
-@pytest.mark.parametrize("choice, expected", [
-    ({"graded-sr": 0.2}, "ex1-quadrature/uniform/s0.5/L6.csv"),   # not named: the finest
-    ({"graded-sr": 0.2}, "ex1-quadrature/graded-sr/s0.5/r0.2.csv"),
-    ({"graded-sr": 0.15}, "must be a member of example1.graded_sr_h"),
+@pytest.mark.parametrize("choice, checked", [
+    ({"graded-sr": 3}, {"uniform": "L6", "graded": "h0.025", "graded-sr": "r0.2"}),
+    ({"uniform": 2, "graded-sr": 1}, {"uniform": "L5", "graded": "h0.025", "graded-sr": "r0.1"}),
 ])
-def test_quadrature_check_mesh(tmp_path, choice, expected):
-    """example1.quadrature_check names the mesh a family's quadrature check repeats; a value
-    outside the family's series is refused before any job runs."""
+def test_quadrature_check_mesh(tmp_path, choice, checked):
+    """example1.quadrature_check gives per family the rank (from the finest) of the run the
+    quadrature check repeats; a family not named is checked on its finest run."""
     import yaml
     cfg = tmp_path / "q.yaml"
-    ex1 = yaml.safe_load((ROOT / "config.yaml").read_text())["example1"]
-    cfg.write_text(yaml.safe_dump({"example1": {**ex1, "quadrature_check": choice},
+    cfg.write_text(yaml.safe_dump({"example1": {"quadrature_check": choice},
                                    "results_dir": f"{tmp_path}/r",
                                    "output_root": f"{tmp_path}/o"}))
-    code, text = dry_run("--configfile", str(cfg), "--", f"{tmp_path}/o/ex1-quadrature-check.md",
-                         ok=not expected.startswith("must"))
-    assert expected in text
-    if expected.startswith("must"):
-        assert code != 0
+    _, text = dry_run("--configfile", str(cfg), "--", f"{tmp_path}/o/ex1-quadrature-check.md")
+    found = dict(re.findall(r"ex1-quadrature/([\w-]+)/s0\.5/([\w.]+)\.csv", text))
+    assert found == checked
+
+
+def test_quadrature_check_rank_beyond_the_series_is_refused(tmp_path):
+    cfg = tmp_path / "q.yaml"
+    cfg.write_text("example1:\n  quadrature_check: {graded-sr: 6}\n")
+    code, text = dry_run("--configfile", str(cfg), ok=False)
+    assert code != 0
+    assert "example1.quadrature_check.graded-sr=6 must be a rank from 1 (the finest) to 5" in text
 
 
 def test_local_profile_runs_computing_jobs_on_one_thread(tmp_path):

@@ -140,18 +140,15 @@ def last_tag(block, family):
 
 
 def quadrature_check_tag(block, family):
-    """The tag of the run a family's quadrature check repeats: the family's finest, or the
-    member named in the block's ``quadrature_check`` (which must be one of the series)."""
-    chosen = block.get("quadrature_check", {})
-    if family not in chosen:
-        return last_tag(block, family)
-    tag = series_tag(family, chosen[family])
+    """The tag of the run a family's quadrature check repeats: the rank-th finest of its
+    series, rank = the block's ``quadrature_check[family]`` (1, the finest, if not given)."""
+    rank = block.get("quadrature_check", {}).get(family, 1)
     members = [t for fam, t in series(block) if fam == family]
-    if tag not in members:
-        raise ValueError(f"config example1.quadrature_check.{family}={chosen[family]!r} must be "
-                         f"a member of example1.{SERIES_KEYS[family]}="
-                         f"{block.get(SERIES_KEYS[family])!r}")
-    return tag
+    if not 1 <= rank <= len(members):
+        raise ValueError(f"config example1.quadrature_check.{family}={rank!r} must be a rank "
+                         f"from 1 (the finest) to {len(members)} (the coarsest of "
+                         f"example1.{SERIES_KEYS[family]}={block.get(SERIES_KEYS[family])!r})")
+    return members[-rank]
 
 
 def ex1_runs(s_list, key="row"):

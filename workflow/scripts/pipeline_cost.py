@@ -1,28 +1,49 @@
 """Sum Snakemake's per-job benchmark files into a cost table (run after the pipeline).
 
     python workflow/scripts/pipeline_cost.py [--results results] [--out paper-figures]
-                                             [--time-log FILE]
-
---time-log: the stderr of `/usr/bin/time -v snakemake --cores 2` (a run from an empty
-results directory): its wall time and peak memory are stated above the table.
+                                             [--time-log FILE] [--configfile FILE]
 
 Every job wrote seconds and peak RSS to results/benchmarks/ (its `benchmark:`
 file).  The elliptic part is Examples 1–3 and the assembly benchmark, the parabolic
-part Examples 4–5; figures and tables are the jobs that only read results.  With `--cores 2`
-the two-thread jobs run one after another, but the one-thread runs of the mesh series
-(profiles/default) run two at a time, so the sum of job seconds exceeds the pipeline's wall
-time; that is measured by `/usr/bin/time` (--time-log).
+part Examples 4–5; figures and tables are the jobs that only read results.  The total
+counts the jobs of `all` only (a dry run with --forceall lists their benchmark files; the
+configuration is --configfile's): files of other targets or of earlier configurations
+are listed as "not in `all`".  With plain `snakemake` (profiles/default) the computing jobs
+run on one thread, two at a time, so the sum of job seconds exceeds the pipeline's wall
+time; that is measured by `/usr/bin/time -v` (--time-log).
+
+--time-log: the stderr of `/usr/bin/time -v snakemake --cores 2` (a run from an empty
+results directory): its wall time and its largest process's peak memory are stated above
+the table.
 """
 import argparse
+import re
+import subprocess
 from pathlib import Path
 
 import pandas as pd
 
 PARTS = {"ex1": "elliptic", "ex1-quadrature": "elliptic", "vi": "elliptic",
          "benchmark_assembly.tsv": "elliptic", "para": "parabolic",
-         "figures": "figures and tables", "tables": "figures and tables",
-         "stability.tsv": "stability (not in `all`)",
-         "stability_vi.tsv": "stability (not in `all`)"}
+         "figures": "figures and tables", "tables": "figures and tables"}
+
+
+def benchmarks_of_all(results, configfile=None):
+    """The benchmark files (relative to results/benchmarks) of the jobs of `all`."""
+    cmd = ["snakemake", "-n", "--forceall", "--cores", "2"]
+    if configfile:
+        cmd += ["--configfile", str(configfile)]
+    out = subprocess.run(cmd, capture_output=True, text=True)
+    if out.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed:\n{out.stdout}{out.stderr}")
+    root = Path(results, "benchmarks")
+    found = {str(Path(p).relative_to(root)) for p in re.findall(r"^\s+benchmark: (\S+)$",
+                                                               out.stdout + out.stderr, re.M)
+             if Path(p).is_relative_to(root)}
+    if not found:
+        raise SystemExit(f"no job of `all` writes its benchmark under {root}: --results must "
+                         "be the configuration's results_dir (and --configfile the run's)")
+    return found
 
 
 def gnu_time(path):
@@ -42,12 +63,14 @@ def gnu_time(path):
     return wall, rss
 
 
-def main(results, out, time_log=None):
+def main(results, out, time_log=None, in_all=None):
+    """in_all: the benchmark files of `all`'s jobs (default: benchmarks_of_all)."""
     wall = gnu_time(time_log) if time_log else None
+    in_all = benchmarks_of_all(results) if in_all is None else set(in_all)
     rows = []
     for f in sorted(Path(results, "benchmarks").rglob("*.tsv")):
         rel = f.relative_to(Path(results, "benchmarks"))
-        part = PARTS.get(rel.parts[0], "other")
+        part = PARTS.get(rel.parts[0], "other") if str(rel) in in_all else "not in `all`"
         d = pd.read_csv(f, sep="\t")
         rows.append({"part": part, "job": str(rel), "seconds": float(d.s.iloc[0]),
                      "max_rss_mb": float(d.max_rss.iloc[0])})
@@ -57,7 +80,7 @@ def main(results, out, time_log=None):
     df = pd.DataFrame(rows)
     summary = df.groupby("part").agg(jobs=("job", "size"), seconds=("seconds", "sum"),
                                      peak_rss_mb=("max_rss_mb", "max")).reset_index()
-    in_all = df[~df.part.str.contains("not in `all`")]
+    in_all = df[df.part != "not in `all`"]
     summary = pd.concat([summary, pd.DataFrame([{
         "part": "total of `all`", "jobs": len(in_all), "seconds": in_all.seconds.sum(),
         "peak_rss_mb": in_all.max_rss_mb.max()}])], ignore_index=True)
@@ -65,8 +88,8 @@ def main(results, out, time_log=None):
     heavy = df.sort_values("seconds", ascending=False).head(8)
     head = ""
     if wall is not None:
-        head = (f"The last run from an empty results directory took {_hms(wall[0])} wall time "
-                f"with a peak resident memory of {wall[1] / 1024:.2f} GB "
+        head = (f"The last run from an empty results directory took {_hms(wall[0])} wall time; "
+                f"its largest process peaked at {wall[1] / 1024:.2f} GiB resident "
                 "(`/usr/bin/time -v snakemake --cores 2`).\n\n")
     text = (head + "Per-job benchmarks of the last pipeline run (`results/benchmarks/`), summed by "
             f"part; peak_rss is the largest single job. The jobs of `all` sum to {minutes:.0f} "
@@ -89,5 +112,7 @@ if __name__ == "__main__":
     ap.add_argument("--out", default="paper-figures")
     ap.add_argument("--time-log", default=None,
                     help="stderr of /usr/bin/time -v snakemake --cores 2 (a run from scratch)")
+    ap.add_argument("--configfile", default=None,
+                    help="the run's --configfile, if any (which jobs `all` has)")
     a = ap.parse_args()
-    main(a.results, a.out, a.time_log)
+    main(a.results, a.out, a.time_log, benchmarks_of_all(a.results, a.configfile))

@@ -21,7 +21,7 @@ SECTIONS = [
      "Least-squares slopes of log error against log DOFs (space-time DOFs for Examples 4 "
      "and 5), ours beside the paper's; `difference` = ours − paper.",
      [], ["rates.md"]),
-    ("Quadrature check on the finest meshes",
+    ("Quadrature check",
      "Every quadrature order raised (`QuadratureOptions().raised()`): the change of (f, u_h) "
      "relative to the squared energy error, which must stay far below one.",
      [], ["ex1-quadrature-check.md"]),
