@@ -203,13 +203,3 @@ def test_quadrature_check_rank_beyond_the_series_is_refused(tmp_path):
     assert code != 0
     assert "example1.quadrature_check.graded-sr=6 must be a rank from 1 (the finest) to 5" in text
 
-
-def test_local_profile_runs_computing_jobs_on_one_thread(tmp_path):
-    """Plain `snakemake` reads profiles/default: every job of `all` on one thread (two run side
-    by side), except the assembly benchmark, which keeps its two and so runs alone."""
-    _, text = dry_run("--forceall", "--config", f"results_dir={tmp_path}/r",
-                      f"output_root={tmp_path}/o")
-    blocks = re.split(r"\n(?:local)?rule ", text)[1:]
-    two = {b.split(":")[0] for b in blocks if re.search(r"^\s+threads: 2$", b, re.M)}
-    assert two == {"benchmark_assembly"}
-    assert sum("threads: 2" in b for b in blocks) == 1
