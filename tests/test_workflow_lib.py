@@ -83,3 +83,34 @@ def test_mismatched_parameters_reads_back_csv_cells(tmp_path):
         ["theta", "operator", "quadrature_far_orders", "data"])
     assert mismatched_parameters({k: v for k, v in row.items() if k != "tol"},
                                  expected) == ["tol"]
+
+
+def test_a_saved_reference_operator_measures_as_the_assembled_one(tmp_path):
+    """The reference's operator assembled once and read back (para_reference_operator) gives
+    the same distances as assembling it in the job; one made for another quadrature, or
+    whose product has changed, is refused."""
+    import pickle
+
+    from fracfem_workflow.runs import (load_reference_operator, save_reference_operator,
+                                       stored_reference)
+    m = ff.disk_uniform(2)
+    rng = np.random.default_rng(0)
+    times = np.array([0.0, 0.5, 1.0])
+    U = rng.standard_normal((3, m.p.shape[1]))
+    save_arrays(tmp_path / "ref.npz", p=m.p, t=m.t, times=times, U=U, s=0.5)
+    quad = ff.QuadratureOptions()
+    save_reference_operator(tmp_path / "ref.npz", quad, tmp_path / "A.pkl")
+    run = [(0.0, 1.0, ff.disk_uniform(1), np.ones(ff.disk_uniform(1).p.shape[1]))]
+    fresh, _ = stored_reference(tmp_path / "ref.npz", quad)
+    read, s = stored_reference(tmp_path / "ref.npz", quad, tmp_path / "A.pkl")
+    assert s == 0.5 and read.distance(run) == pytest.approx(fresh.distance(run), rel=1e-13)
+    pieces, _ = parabolic_pieces(tmp_path / "ref.npz")
+    with pytest.raises(ValueError, match="another reference run or quadrature"):
+        load_reference_operator(tmp_path / "A.pkl", pieces, 0.5, quad.raised())
+    with pytest.raises(ValueError, match="another reference run or quadrature"):
+        load_reference_operator(tmp_path / "A.pkl", pieces, 0.6, quad)
+    data = pickle.loads((tmp_path / "A.pkl").read_bytes())
+    data["check"] = (data["check"][0], 1.001 * data["check"][1])
+    (tmp_path / "A.pkl").write_bytes(pickle.dumps(data))
+    with pytest.raises(ValueError, match="product differs"):
+        load_reference_operator(tmp_path / "A.pkl", pieces, 0.5, quad)

@@ -14,16 +14,17 @@ logger = script_logger("para_adaptive")
 
 def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
          max_iterations, figure_iterations, output_times, tol, quadrature, ref, table, npz,
-         log=None, threads=None, operator="dense"):
+         log=None, threads=None, operator="dense", ref_operator=None):
     """problem: the run's name; example, data: fracfem.example(example, **data); ref: the
     reference run the errors are measured against; operator: each slab's stiffness
-    ('dense', 'compressed', 'auto')."""
+    ('dense', 'compressed', 'auto'); ref_operator: the reference's operator, saved by
+    para_reference_operator (None: assembled here)."""
     start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
     obstacle = example == "ex4"
     t0 = time.perf_counter()
-    reference, s = stored_reference(ref, quad)
+    reference, s = stored_reference(ref, quad, ref_operator)
     t_ref = time.perf_counter() - t0
     rows, arrays, t_start = [], {}, time.perf_counter()
     keep = {int(k) for k in figure_iterations}
@@ -102,4 +103,5 @@ if __name__ == "__main__":
          snakemake.params.figure_iterations, snakemake.params.output_times,  # noqa: F821
          snakemake.params.tol, snakemake.params.quadrature, snakemake.input.ref,  # noqa: F821
          snakemake.output.table, snakemake.output.npz, snakemake.log[0],  # noqa: F821
-         snakemake.threads, snakemake.params.operator)  # noqa: F821
+         snakemake.threads, snakemake.params.operator,  # noqa: F821
+         snakemake.input.operator)  # noqa: F821

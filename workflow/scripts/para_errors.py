@@ -26,11 +26,12 @@ from fracfem_workflow.runs import parabolic_pieces, start, stored_reference
 logger = script_logger("para_errors")
 
 
-def reference_error(ref, coarser, quadrature):
+def reference_error(ref, coarser, quadrature, ref_operator=None):
     """(SpaceTimeReference of the reference run, its info: the measured error and the
-    distances behind it); coarser: the family's two coarser runs."""
+    distances behind it); coarser: the family's two coarser runs; ref_operator: the
+    reference's operator saved by para_reference_operator (None: assembled here)."""
     quad = ff.QuadratureOptions(**quadrature)
-    reference, s = stored_reference(ref, quad)
+    reference, s = stored_reference(ref, quad, ref_operator)
     u1, _ = parabolic_pieces(coarser[0])
     u2, _ = parabolic_pieces(coarser[1])
     disc2 = ff.discretise(u2[0][2], s, 0.0, quadrature=quad, operator="auto")
@@ -45,12 +46,12 @@ def reference_error(ref, coarser, quadrature):
 
 
 def main(rows, npzs, ref, ref_row, coarser, adaptive, quadrature, csv, log=None,
-         threads=None):
+         threads=None, ref_operator=None):
     """rows, npzs: the uniform and graded runs (same order); ref, ref_row: the reference
     run and its row; coarser: its family's two coarser runs (coarsest first); adaptive:
     Algorithm C's table (its errors are computed there)."""
     start(log, threads)
-    reference, info = reference_error(ref, coarser, quadrature)
+    reference, info = reference_error(ref, coarser, quadrature, ref_operator)
     row = pd.read_csv(ref_row).iloc[0]
     info.update(reference_t_wall=row.t_wall, reference_peak_mem_mb=row.peak_mem_mb,
                 reference_operator=row.operator_used)
@@ -72,4 +73,5 @@ if __name__ == "__main__":
          snakemake.input.ref, snakemake.input.ref_row,  # noqa: F821
          list(snakemake.input.coarser),  # noqa: F821
          snakemake.input.adaptive, snakemake.params.quadrature,  # noqa: F821
-         snakemake.output.csv, snakemake.log[0], snakemake.threads)  # noqa: F821
+         snakemake.output.csv, snakemake.log[0], snakemake.threads,  # noqa: F821
+         snakemake.input.operator)  # noqa: F821

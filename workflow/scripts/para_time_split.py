@@ -22,15 +22,17 @@ CACHE_BYTES = "1G"
 
 def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
          max_iterations, refinements, tol, quadrature, ref, errors, csv, md, log=None,
-         threads=None, operator="dense"):
+         threads=None, operator="dense", ref_operator=None):
     """refinements: the factors m (1 is always included: the pass itself); ref: the
-    reference run; errors: the problem's errors.csv (its ``reference_error``)."""
+    reference run; errors: the problem's errors.csv (its ``reference_error``);
+    ref_operator: the reference's operator saved by para_reference_operator (None:
+    assembled here)."""
     start(log, threads)
     refinements = sorted({int(m) for m in refinements} | {1})
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
     ref_error = float(pd.read_csv(errors).reference_error.max())
-    reference, s = stored_reference(ref, quad)
+    reference, s = stored_reference(ref, quad, ref_operator)
 
     def make(coarse):
         return ex.problem(coarse, quad, operator=operator)
@@ -116,4 +118,4 @@ if __name__ == "__main__":
          sm.params.theta, sm.params.start_level, sm.params.c_tau,
          sm.params.max_spacetime_dofs, sm.params.max_iterations, sm.params.refinements,
          sm.params.tol, sm.params.quadrature, sm.input.ref, sm.input.errors, sm.output.csv,
-         sm.output.md, sm.log[0], sm.threads, sm.params.operator)
+         sm.output.md, sm.log[0], sm.threads, sm.params.operator, sm.input.operator)

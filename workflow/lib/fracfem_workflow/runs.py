@@ -11,7 +11,8 @@ import numpy as np
 from .logs import log_to
 
 __all__ = ["start", "parameter_columns", "parameter_names", "parabolic_pieces",
-           "mismatched_parameters"]
+           "mismatched_parameters", "stored_reference", "save_reference_operator",
+           "load_reference_operator"]
 
 # scalar parameters recorded in result rows (besides the quadrature_<field> columns)
 PARAMETERS = ("grading", "theta", "marking", "start_level", "max_dofs", "solver", "cross_check",
@@ -84,20 +85,80 @@ def parameter_names(columns) -> list[str]:
     return [c for c in columns if c in PARAMETERS or c.startswith("quadrature_")]
 
 
-def stored_reference(npz, quadrature):
+def stored_reference(npz, quadrature, operator=None):
     """(SpaceTimeReference, s) of a stored parabolic reference run: its pieces and its
     operator on the free nodes ('auto': compressed when large) to measure runs against;
-    quadrature: the fracfem.QuadratureOptions of the runs it judges."""
-    import fracfem as ff
+    quadrature: the fracfem.QuadratureOptions of the runs it judges.  operator: a file of
+    save_reference_operator for this run and quadrature, read instead of assembling
+    (checked: same mesh, s and quadrature, and one product as when it was saved)."""
     from fracfem.transfer import SpaceTimeReference
 
     pieces, d = parabolic_pieces(npz)
     s = float(d["s"])
-    logging.getLogger("fracfem_workflow").info(
-        "reference solution %s: %d time steps on %d nodes; assembling its operator",
-        npz, len(pieces), pieces[0][2].p.shape[1])
+    log = logging.getLogger("fracfem_workflow")
+    log.info("reference solution %s: %d time steps on %d nodes", npz, len(pieces),
+             pieces[0][2].p.shape[1])
+    if operator is None:
+        A, free = _reference_operator(pieces, s, quadrature)
+    else:
+        A, free = load_reference_operator(operator, pieces, s, quadrature)
+        log.info("its operator read from %s", operator)
+    return SpaceTimeReference(pieces, A, free), s
+
+
+def _reference_operator(pieces, s, quadrature):
+    import fracfem as ff
+
+    logging.getLogger("fracfem_workflow").info("assembling the reference's operator")
     disc = ff.discretise(pieces[0][2], s, 0.0, quadrature=quadrature, operator="auto")
-    return SpaceTimeReference(pieces, disc.A, disc.free), s
+    return disc.A, np.asarray(disc.free)
+
+
+def _operator_key(pieces, s, quadrature):
+    """What a saved reference operator must have been made for."""
+    mesh = pieces[0][2]
+    return {"s": float(s), "quadrature": json.dumps(dataclasses.asdict(quadrature),
+                                                    sort_keys=True),
+            "nodes": int(mesh.p.shape[1]), "triangles": int(mesh.t.shape[1]),
+            "p_sum": float(np.asarray(mesh.p, dtype=float).sum())}
+
+
+def save_reference_operator(npz, quadrature, out):
+    """Assemble the operator of a stored reference run once and write it (pickle) with
+    what it was made for and one product, for the jobs that measure runs against it."""
+    import pickle
+
+    from .io import atomic_path
+
+    pieces, d = parabolic_pieces(npz)
+    s = float(d["s"])
+    A, free = _reference_operator(pieces, s, quadrature)
+    x = np.asarray(pieces[-1][3], dtype=float)[free]
+    data = {"key": _operator_key(pieces, s, quadrature), "A": A, "free": free,
+            "check": (x, np.asarray(A @ x, dtype=float))}
+    with atomic_path(out) as tmp:
+        with open(tmp, "wb") as f:
+            pickle.dump(data, f, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def load_reference_operator(path, pieces, s, quadrature):
+    """(A, free) of save_reference_operator's file, after checking that it was made for
+    this reference run and quadrature and that it still gives the product it gave."""
+    import pickle
+
+    with open(path, "rb") as f:
+        data = pickle.load(f)
+    key = _operator_key(pieces, s, quadrature)
+    if data["key"] != key:
+        differ = sorted(k for k in key if data["key"].get(k) != key[k])
+        raise ValueError(f"{path} was made for another reference run or quadrature "
+                         f"(differs in {differ}): delete it to reassemble")
+    x, y = data["check"]
+    if not np.allclose(np.asarray(data["A"] @ x, dtype=float), y, rtol=1e-12,
+                       atol=1e-12 * float(np.abs(y).max())):
+        raise ValueError(f"{path}: the stored operator's product differs from the one "
+                         "saved with it: delete it to reassemble")
+    return data["A"], np.asarray(data["free"])
 
 
 def parabolic_pieces(npz):
