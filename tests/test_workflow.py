@@ -80,9 +80,12 @@ def test_parabolic_figure_runs_only_its_jobs(tmp_path):
     _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
                       "--", f"{tmp_path}/o/fig13-ex4-error.png")
     jobs = job_counts(text)
-    # Figure 13: Example 4 (both initial values): series, reference, Algorithm C, errors
-    assert set(jobs) == {"para_solve", "para_adaptive", "para_errors", "fig_para_error"}
+    # Figure 13: Example 4 (both initial values): series, reference (and its operator, once
+    # per problem), Algorithm C, errors
+    assert set(jobs) == {"para_solve", "para_reference_operator", "para_adaptive",
+                         "para_errors", "fig_para_error"}
     assert jobs["para_adaptive"] == 2 and jobs["para_errors"] == 2
+    assert jobs["para_reference_operator"] == 2
     assert "ex5" not in text and "ex1_solve" not in text and "vi_solve" not in text
 
 
