@@ -28,7 +28,7 @@ rule para_solve:
         "../scripts/para_solve.py"
 
 
-# The reference's operator, assembled once (a minute and a half at the default tier's size)
+# The reference's operator, assembled once (most of a minute at the default tier's size)
 # for the three jobs below that measure runs against it; deleted when they are done
 rule para_reference_operator:
     input:
