@@ -134,11 +134,6 @@ def families(block):
     return list(dict.fromkeys(fam for fam, _ in series(block)))
 
 
-def last_tag(block, family):
-    """The tag of the last run of a family's series in a config block."""
-    return [tag for fam, tag in series(block) if fam == family][-1]
-
-
 def quadrature_check_tag(block, family):
     """The tag of the run a family's quadrature check repeats: the rank-th finest of its
     series, rank = the block's ``quadrature_check[family]`` (1, the finest, if not given)."""

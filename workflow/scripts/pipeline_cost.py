@@ -63,10 +63,11 @@ def gnu_time(path):
     return wall, rss
 
 
-def main(results, out, time_log=None, in_all=None):
-    """in_all: the benchmark files of `all`'s jobs (default: benchmarks_of_all)."""
+def main(results, out, time_log=None, configfile=None, in_all=None):
+    """in_all: the benchmark files of `all`'s jobs (default: benchmarks_of_all of the
+    configuration configfile)."""
     wall = gnu_time(time_log) if time_log else None
-    in_all = benchmarks_of_all(results) if in_all is None else set(in_all)
+    in_all = benchmarks_of_all(results, configfile) if in_all is None else set(in_all)
     rows = []
     for f in sorted(Path(results, "benchmarks").rglob("*.tsv")):
         rel = f.relative_to(Path(results, "benchmarks"))
@@ -80,11 +81,11 @@ def main(results, out, time_log=None, in_all=None):
     df = pd.DataFrame(rows)
     summary = df.groupby("part").agg(jobs=("job", "size"), seconds=("seconds", "sum"),
                                      peak_rss_mb=("max_rss_mb", "max")).reset_index()
-    in_all = df[df.part != "not in `all`"]
+    of_all = df[df.part != "not in `all`"]
+    total_s = of_all.seconds.sum()
     summary = pd.concat([summary, pd.DataFrame([{
-        "part": "total of `all`", "jobs": len(in_all), "seconds": in_all.seconds.sum(),
-        "peak_rss_mb": in_all.max_rss_mb.max()}])], ignore_index=True)
-    minutes = in_all.seconds.sum() / 60
+        "part": "total of `all`", "jobs": len(of_all), "seconds": total_s,
+        "peak_rss_mb": of_all.max_rss_mb.max()}])], ignore_index=True)
     heavy = df.sort_values("seconds", ascending=False).head(8)
     head = ""
     if wall is not None:
@@ -92,7 +93,7 @@ def main(results, out, time_log=None, in_all=None):
                 f"its largest process peaked at {wall[1] / 1024:.2f} GiB resident "
                 "(`/usr/bin/time -v snakemake --cores 2`).\n\n")
     text = (head + "Per-job benchmarks of the last pipeline run (`results/benchmarks/`), summed by "
-            f"part; peak_rss is the largest single job. The jobs of `all` sum to {minutes:.0f} "
+            f"part; peak_rss is the largest single job. The jobs of `all` sum to {total_s / 60:.0f} "
             "minutes.\n\n"
             + summary.to_markdown(index=False, floatfmt=".1f")
             + "\n\nThe most expensive jobs:\n\n"
@@ -115,4 +116,4 @@ if __name__ == "__main__":
     ap.add_argument("--configfile", default=None,
                     help="the run's --configfile, if any (which jobs `all` has)")
     a = ap.parse_args()
-    main(a.results, a.out, a.time_log, benchmarks_of_all(a.results, a.configfile))
+    main(a.results, a.out, a.time_log, a.configfile)
