@@ -235,15 +235,17 @@ class SpaceTimeReference:
         grid = np.union1d(ta, tb)
         grid = grid[np.concatenate([[True], np.diff(grid) > 1e-12 * max(1.0, abs(grid[-1]))])]
         total = 0.0
-        last = (None, None)
+        last = last_ref = (None, None)
         for a, b in zip(grid[:-1], grid[1:]):
             mid = 0.5 * (a + b)
             i = int(np.clip(np.searchsorted(ta, mid) - 1, 0, len(pieces) - 1))
             j = int(np.clip(np.searchsorted(tb, mid) - 1, 0, len(self.values) - 1))
             if last[0] != i:
                 last = (i, piece(i))
+            if last_ref[0] != j:       # Y c_j once per reference piece, not per interval
+                last_ref = (j, self._A_ref(j))
             v, Av = last[1]
-            total += (b - a) * float((v - self.values[j]) @ (Av - self._A_ref(j)))
+            total += (b - a) * float((v - self.values[j]) @ (Av - last_ref[1]))
         return float(np.sqrt(max(total, 0.0)))
 
 
