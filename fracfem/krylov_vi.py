@@ -206,7 +206,8 @@ def _start(u0, n):
 
 def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=None,
          lam0=None, u0=None, inner_tol: float | None = None, inner_maxiter: int = 1000,
-         warm_start: bool = True, loose: bool = True, globalize="auto"):
+         warm_start: bool = True, loose: bool = True, globalize="auto",
+         pair_start: bool = False):
     """Primal–dual active set method for Problem 5.15 with inner Krylov solves.
 
     The sets, the stopping test (fixed-point residual ‖λ − P_Λ(λ + c∘y)‖ below
@@ -230,6 +231,10 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
     loose : solve the steps to the relative KKT residual 1e-6 until the sets
         settle, then those sets once more to ``inner_tol`` (else every step
         to ``inner_tol``); a settled set is only accepted after the accurate solve
+    pair_start : λ⁰ and u⁰ are the solution pair of a nearby problem (the
+        previous time step: :class:`fracfem.parabolic.Stepper`); the first
+        active sets are read off them, y = Bᵀu⁰ − g, instead of off a solve
+        with λ⁰ (which saves that solve); needs a nonzero λ⁰ and u⁰
     globalize : "auto" (default): when the active sets cycle or the residual
         stalls (not halved in ``solvers.STALL_STEPS`` steps), go on with feasible
         steps whose length maximises the dual energy (:func:`_feasible_newton`),
@@ -277,13 +282,18 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
 
     # steps are solved to LOOSE_TOL until the sets settle, then once more to inner_tol
     accuracy = max(LOOSE_TOL, inner_tol) if loose else inner_tol
+    if pair_start and (u0 is None or not np.any(lam)):
+        raise ValueError("pair_start=True needs the pair it starts from: a nonzero lam0 "
+                         f"and u0 (got lam0 {'nonzero' if np.any(lam) else 'zero'}, "
+                         f"u0 {'None' if u0 is None else 'given'})")
     if np.any(lam):
         # d = BᵀA⁻¹f − g only scales the stopping test: a rough A⁻¹f does, and it
         # starts the solve with λ⁰ (measured, Example 4 at 7k DOFs warm-started from
         # the last time step: 2–3 + 9 iterations where A⁻¹f to LOOSE_TOL took 10 + 7)
         data, _ = solve(f, u, free, None, max(DATA_TOL, accuracy))
         d = Bt @ data - cset.g
-        u, _ = solve(f - B @ lam, data, free, None, accuracy)
+        if not pair_start:   # else u stays u⁰: (λ⁰, Bᵀu⁰ − g) give the first sets
+            u, _ = solve(f - B @ lam, data, free, None, accuracy)
     else:
         u, _ = solve(f, u, free, None, accuracy)  # u(0), the data d and the first iterate
         d = Bt @ u - cset.g

@@ -185,9 +185,11 @@ def test_parabolic_reference_copy_is_single_precision_and_keeps_what_is_used(tmp
         pd.DataFrame([{"tag": "h0.025", "t_wall": 1.0}]).to_csv(row, index=False)
         runs[problem] = (str(npz), str(row), (str(tmp_path / f"c-{problem}-parabolic.npz"),
                                               str(tmp_path / f"c-{problem}-parabolic.csv")))
-    npzs, rows, committed = (list(x) for x in zip(*runs.values()))
-    copy.main(list(runs), npzs, rows, committed, multipliers=["ex5"])
-    for problem, (_, row, (npz_to, row_to)) in runs.items():
+    for problem, (npz, row, committed) in runs.items():
+        copy.main(problem, npz, row, committed, multipliers=["ex5"],
+                  note=tmp_path / f"{problem}-note.txt")
+    for problem, (npz, row, (npz_to, row_to)) in runs.items():
+        assert (tmp_path / f"{problem}-note.txt").read_text().startswith(f"{npz} (")
         d = np.load(npz_to)
         assert d["U"].dtype == np.float32
         assert np.max(np.abs(d["U"] - U) / np.abs(U).max()) < 1e-7

@@ -150,6 +150,33 @@ def test_warm_starts_save_inner_iterations():
     assert sum(again["inner_iterations"]) < 0.5 * sum(warm["inner_iterations"])
 
 
+
+@pytest.mark.parametrize("kind, factor", [("obstacle", 0.5), ("friction", 1.05)])
+def test_pair_start_reads_the_first_sets_off_a_nearby_solution(kind, factor):
+    """A time step's problem: f moved from a solved one, enough to move some of
+    the active sets.  Starting from that solution pair's sets (pair_start)
+    reaches the solution of the solve with λ⁰ to the solvers' accuracy, here in
+    fewer inner iterations; a pair_start without a pair is refused by name."""
+    A, cset, f = standin_case(kind, 3)
+    op = Operator(A)
+    u, lam, _ = krylov_vi.pdas(op, cset.B, f, cset)
+    assert 0 < np.count_nonzero(lam) and np.count_nonzero(lam != cset.upper) > 0
+    f2 = f * factor + 0.01 * np.abs(f).max() * np.cos(np.arange(f.size))
+    u_ref, lam_ref, _ = solvers.pdas(A, cset.B, f2, cset, tol=1e-12)
+    u_l, lam_l, with_lam = krylov_vi.pdas(op, cset.B, f2, cset, lam0=lam, u0=u)
+    u_p, lam_p, paired = krylov_vi.pdas(op, cset.B, f2, cset, lam0=lam, u0=u,
+                                        pair_start=True)
+    for uu, ll in ((u_l, lam_l), (u_p, lam_p)):
+        assert_close(uu, ll, u_ref, lam_ref, cset.B, AGREE)
+    def sets(mu):
+        return np.where(mu == cset.upper, 1, np.where(mu == cset.lower, -1, 0))
+    assert np.any(sets(lam_ref) != sets(lam))   # some of the sets moved
+    assert sum(paired["inner_iterations"]) < sum(with_lam["inner_iterations"])
+    for bad in ({"u0": u}, {"lam0": lam}):
+        with pytest.raises(ValueError, match="pair_start"):
+            krylov_vi.pdas(op, cset.B, f2, cset, pair_start=True, **bad)
+
+
 # ------------------------------------------------------------- compressed operator
 
 

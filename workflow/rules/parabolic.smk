@@ -369,25 +369,35 @@ rule para_time_split:
         "../scripts/para_time_split.py"
 
 
-# `snakemake --cores 2 para_reference_large --forcerun para_solve`: recompute the reference
-# runs of Examples 4, 5 and replace their committed copies (parabolic.reference.committed;
-# the input files, not outputs of this rule: a fresh clone uses the copies as they are)
-rule para_reference_large:
+# `snakemake --cores 2 results/para/<problem>/reference-committed.txt`: compute the reference
+# run of one problem and replace its committed copy (parabolic.reference.committed; the input
+# files, not outputs of this rule: a fresh clone uses the copies as they are); add
+# `--forcerun para_solve` to recompute a reference that has a matching copy already
+rule para_reference_commit:
     input:
-        npz=[path(rules.para_solve.output.npz, problem=p, family="reference",
-                  tag=para_reference_tag(p)) for p in PARA_PROBLEMS],
-        rows=[path(rules.para_solve.output.row, problem=p, family="reference",
-                   tag=para_reference_tag(p)) for p in PARA_PROBLEMS],
+        npz=lambda w: path(rules.para_solve.output.npz, problem=w.problem, family="reference",
+                           tag=para_reference_tag(w.problem)),
+        row=lambda w: path(rules.para_solve.output.row, problem=w.problem, family="reference",
+                           tag=para_reference_tag(w.problem)),
+    output:
+        note=f"{RES}/para/{{problem}}/reference-committed.txt",
+    wildcard_constraints:
+        problem="|".join(PARA_PROBLEMS),
     params:
-        problems=PARA_PROBLEMS,
-        committed=[(str(committed_para_reference(p)), str(committed_para_reference(p, "csv")))
-                   for p in PARA_PROBLEMS],
+        committed=lambda w: (str(committed_para_reference(w.problem)),
+                             str(committed_para_reference(w.problem, "csv"))),
         multipliers=["ex5"],    # λ_H kept for ex5-free-boundary.md
     log:
-        f"{RES}/logs/para_reference_large.log",
+        f"{RES}/logs/para/{{problem}}_reference_commit.log",
     benchmark:
-        f"{RES}/benchmarks/tables/para_reference_large.tsv"
+        f"{RES}/benchmarks/para/{{problem}}_reference_commit.tsv"
     conda:
         ENV
     script:
         "../scripts/para_reference_copy.py"
+
+
+# `snakemake --cores 2 para_reference_large --forcerun para_solve`: the same for every problem
+rule para_reference_large:
+    input:
+        [path(rules.para_reference_commit.output.note, problem=p) for p in PARA_PROBLEMS],
