@@ -245,7 +245,8 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
     -------
     u, lam, info
         ``info``: ``iterations``, ``residuals``, ``residual``, ``n_constrained``,
-        ``c``, ``inner_iterations`` (per solve, the first two unconstrained),
+        ``c``, ``inner_iterations`` (per solve, the first two unconstrained; one with
+        ``pair_start``),
         ``seconds`` (``initial``, ``iterations``).
     """
     _check_globalize(globalize)

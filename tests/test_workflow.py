@@ -83,10 +83,22 @@ def test_parabolic_figure_runs_only_its_jobs(tmp_path):
     # Figure 13: Example 4 (both initial values): series, reference (and its operator, once
     # per problem), Algorithm C, errors
     assert set(jobs) == {"para_solve", "para_reference_operator", "para_adaptive",
-                         "para_errors", "fig_para_error"}
+                         "para_reference_error", "para_errors", "fig_para_error"}
     assert jobs["para_adaptive"] == 2 and jobs["para_errors"] == 2
-    assert jobs["para_reference_operator"] == 2
+    assert jobs["para_reference_operator"] == 2 and jobs["para_reference_error"] == 2
     assert "ex5" not in text and "ex1_solve" not in text and "vi_solve" not in text
+
+
+def test_reference_error_is_measured_without_algorithm_c(tmp_path):
+    """The reference's own error is a target of its own: its family's runs, the reference's
+    operator and the distances, none of Algorithm C's passes."""
+    _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
+                      "--", f"{tmp_path}/r/para/ex4-u1/reference-error.csv")
+    jobs = job_counts(text)
+    assert set(jobs) == {"para_solve", "para_reference_operator", "para_reference_error"}
+    assert jobs["para_reference_error"] == 1
+    # the two coarser runs of the family (the reference itself is the committed copy)
+    assert jobs["para_solve"] == 2 and "ex4-u2" not in text
 
 
 def test_every_paper_figure_is_a_default_target(tmp_path):
@@ -155,14 +167,19 @@ def test_other_data_recompute_the_parabolic_reference(tmp_path, change):
 
 def test_paper_scale_tier_has_its_own_root_and_the_paper_sizes():
     """config/paper.yaml writes everything under results-paper/, runs Algorithm C and the
-    finer Example 4 reference, reuses the committed elliptic references, recomputes
+    finer Example 4 reference (or reuses this tier's committed copy of it, never the
+    default tier's), reuses the committed elliptic references, recomputes
     Example 5's under its own parabolic quadrature, and its rate
     table takes the default tier's committed rates.csv as input."""
     _, text = dry_run("--configfile", "config/paper.yaml", "--forceall")
     outputs = re.findall(r"^\s+output: (.*)$", text, re.M)
     assert outputs and all(o.startswith("results-paper/") for line in outputs
                            for o in line.split(", "))
-    assert "results-paper/para/ex4-u1/reference/h0.0125.npz" in text
+    for problem in ("ex4-u1", "ex4-u2"):
+        copy = f"workflow/data/reference/paper-scale/{problem}-parabolic.npz"
+        fresh = f"results-paper/para/{problem}/reference/h0.0125.npz"
+        assert (copy if (ROOT / copy).exists() else fresh) in text
+        assert f"workflow/data/reference/{problem}-parabolic.npz" not in text
     assert "vi_adaptive_large" not in job_counts(text)
     # its parabolic jobs' own quadrature (parabolic.quadrature): Example 5's committed
     # reference, made with config.yaml's, is recomputed; the elliptic ones are not

@@ -29,7 +29,7 @@ rule para_solve:
 
 
 # The reference's operator, assembled once (most of a minute at the default tier's size)
-# for the three jobs below that measure runs against it; deleted when they are done
+# for the four jobs below that measure runs against it; deleted when they are done
 rule para_reference_operator:
     input:
         ref=para_reference,
@@ -84,6 +84,31 @@ rule para_adaptive:
         "../scripts/para_adaptive.py"
 
 
+# The reference's own error, from the two coarser runs of its family (its own target: the
+# paper-scale tier measures it without Algorithm C's passes)
+rule para_reference_error:
+    input:
+        ref=para_reference,
+        operator=rules.para_reference_operator.output.pkl,
+        ref_row=para_reference_row,
+        coarser=para_reference_coarser,
+    output:
+        csv=f"{RES}/para/{{problem}}/reference-error.csv",
+    log:
+        f"{RES}/logs/para/{{problem}}_reference_error.log",
+    benchmark:
+        f"{RES}/benchmarks/para/{{problem}}_reference_error.tsv"
+    wildcard_constraints:
+        problem="|".join(PARA_PROBLEMS),
+    params:
+        quadrature=PARA_QUADRATURE,
+    threads: 2
+    conda:
+        ENV
+    script:
+        "../scripts/para_reference_error.py"
+
+
 rule para_errors:
     input:
         adaptive=rules.para_adaptive.output.table,
@@ -91,8 +116,7 @@ rule para_errors:
         npz=para_series_npz,
         ref=para_reference,
         operator=rules.para_reference_operator.output.pkl,
-        ref_row=para_reference_row,
-        coarser=para_reference_coarser,
+        ref_error=rules.para_reference_error.output.csv,
     output:
         csv=f"{RES}/para/{{problem}}/errors.csv",
     log:
