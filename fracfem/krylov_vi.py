@@ -118,17 +118,19 @@ def _splu(K):
 def _cg(A, rhs, u, M, proj, tol, maxiter, what):
     """Projected PCG for min ½uᵀAu − rhsᵀu on u + null(B_Eᵀ), u feasible.
 
-    Stops when ‖Πᵀ(rhs − A u)‖ ≤ tol·max(‖rhs‖, ‖A u⁰‖).  Returns (u, w, iterations),
-    w the least-squares multiplier (A u + B_E w ≈ rhs).
+    Stops when ‖Πᵀ(rhs − A u)‖ ≤ tol·max(‖rhs‖, ‖A u‖) at the current iterate u (A u
+    updated with the residual, no extra product): the scale is the solution's, not the
+    start's, so a start far from the solution does not loosen the test.  Returns (u, w,
+    iterations), w the least-squares multiplier (A u + B_E w ≈ rhs).
     """
     Au = A @ u
     r = rhs - Au
-    scale = max(float(np.linalg.norm(rhs)), float(np.linalg.norm(Au)))
+    rhs_norm = float(np.linalg.norm(rhs))
+    scale = max(rhs_norm, float(np.linalg.norm(Au)))
     rr, w = proj.residual(r)
     res = float(np.linalg.norm(rr))
-    target = tol * scale
     it = 0
-    if res <= target:
+    if res <= tol * scale:
         return u, w, it
     z = proj.apply(M(rr))
     p = z
@@ -144,10 +146,12 @@ def _cg(A, rhs, u, M, proj, tol, maxiter, what):
         alpha = rz / pq
         u = u + alpha * p
         r -= alpha * q
+        Au += alpha * q
         rr, w = proj.residual(r)
         res = float(np.linalg.norm(rr))
+        scale = max(rhs_norm, float(np.linalg.norm(Au)))
         it += 1
-        if res <= target:
+        if res <= tol * scale:
             return u, w, it
         z = proj.apply(M(rr))
         rz_new = float(rr @ z)
@@ -231,10 +235,12 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
     loose : solve the steps to the relative KKT residual 1e-6 until the sets
         settle, then those sets once more to ``inner_tol`` (else every step
         to ``inner_tol``); a settled set is only accepted after the accurate solve
-    pair_start : λ⁰ and u⁰ are the solution pair of a nearby problem (the
-        previous time step: :class:`fracfem.parabolic.Stepper`); the first
-        active sets are read off them, y = Bᵀu⁰ − g, instead of off a solve
-        with λ⁰ (which saves that solve); needs a nonzero λ⁰ and u⁰
+    pair_start : λ⁰ is the multiplier of a nearby problem and u⁰ near this
+        problem's solution (the previous time step's λ and the predictor of
+        this step's u: :class:`fracfem.parabolic.Stepper`); the first active
+        sets are read off them, y = Bᵀu⁰ − g, instead of off a solve with λ⁰
+        (which saves that solve); needs a λ⁰ nonzero in Λ and u⁰.  Only the
+        start changes: the sets are iterated and solved to the same tolerance
     globalize : "auto" (default): when the active sets cycle or the residual
         stalls (not halved in ``solvers.STALL_STEPS`` steps), go on with feasible
         steps whose length maximises the dual energy (:func:`_feasible_newton`),
@@ -245,8 +251,8 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
     -------
     u, lam, info
         ``info``: ``iterations``, ``residuals``, ``residual``, ``n_constrained``,
-        ``c``, ``inner_iterations`` (per solve, the first two unconstrained; one with
-        ``pair_start``),
+        ``c``, ``inner_iterations`` (per solve: the first two unconstrained, one with
+        ``pair_start``; the feasible steps of ``globalize`` add their own),
         ``seconds`` (``initial``, ``iterations``).
     """
     _check_globalize(globalize)
@@ -283,9 +289,13 @@ def pdas(A, B, f, cset, *, M=None, tol: float = 1e-10, maxiter: int = 200, c=Non
 
     # steps are solved to LOOSE_TOL until the sets settle, then once more to inner_tol
     accuracy = max(LOOSE_TOL, inner_tol) if loose else inner_tol
+    if not isinstance(pair_start, (bool, np.bool_)):
+        raise ValueError(f"pair_start must be True or False; got {pair_start!r}")
     if pair_start and (u0 is None or not np.any(lam)):
-        raise ValueError("pair_start=True needs the pair it starts from: a nonzero lam0 "
-                         f"and u0 (got lam0 {'nonzero' if np.any(lam) else 'zero'}, "
+        got = ("None" if lam0 is None else "nonzero" if np.any(lam)
+               else "zero once projected onto the admissible multipliers")
+        raise ValueError("pair_start=True needs the pair it starts from: a lam0 nonzero in "
+                         f"the admissible set and u0 (got lam0 {got}, "
                          f"u0 {'None' if u0 is None else 'given'})")
     if np.any(lam):
         # d = BᵀA⁻¹f − g only scales the stopping test: a rough A⁻¹f does, and it

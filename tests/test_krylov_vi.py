@@ -177,6 +177,25 @@ def test_pair_start_reads_the_first_sets_off_a_nearby_solution(kind, factor):
             krylov_vi.pdas(op, cset.B, f2, cset, pair_start=True, **bad)
 
 
+@pytest.mark.parametrize("loose", [True, False])
+def test_a_start_far_from_the_solution_is_solved_as_accurately(loose):
+    """The inner PCG's stopping test scales with the current iterate's A u, not the
+    start's: u⁰ = the solution shifted far along null(Bᵀ) (every constraint value
+    unchanged, so the first sets are the solution's) still ends at the solution to
+    the solvers' accuracy, also when the sets' first solve is the last."""
+    A, cset, f = standin_case("obstacle", 3)
+    op = Operator(A)
+    u, lam, _ = krylov_vi.pdas(op, cset.B, f, cset)
+    u_ref, lam_ref, _ = solvers.pdas(A, cset.B, f, cset, tol=1e-12)
+    B = cset.B.toarray()
+    w = np.cos(np.arange(f.size) * 0.7)
+    v = w - B @ np.linalg.lstsq(B, w, rcond=None)[0]     # Bᵀv = 0
+    far = u + 1e4 * np.abs(u).max() * v / np.abs(v).max()
+    u_p, lam_p, _ = krylov_vi.pdas(op, cset.B, f, cset, lam0=lam, u0=far, pair_start=True,
+                                   loose=loose)
+    assert_close(u_p, lam_p, u_ref, lam_ref, cset.B, AGREE)
+
+
 # ------------------------------------------------------------- compressed operator
 
 

@@ -80,10 +80,11 @@ def test_parabolic_figure_runs_only_its_jobs(tmp_path):
     _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
                       "--", f"{tmp_path}/o/fig13-ex4-error.png")
     jobs = job_counts(text)
-    # Figure 13: Example 4 (both initial values): series, reference (and its operator, once
-    # per problem), Algorithm C, errors
-    assert set(jobs) == {"para_solve", "para_reference_operator", "para_adaptive",
-                         "para_reference_error", "para_errors", "fig_para_error"}
+    # Figure 13: Example 4 (both initial values): series, the reference's family (and the
+    # reference's operator, once per problem), Algorithm C, errors
+    assert set(jobs) == {"para_solve", "para_reference_solve", "para_reference_operator",
+                         "para_adaptive", "para_reference_error", "para_errors",
+                         "fig_para_error"}
     assert jobs["para_adaptive"] == 2 and jobs["para_errors"] == 2
     assert jobs["para_reference_operator"] == 2 and jobs["para_reference_error"] == 2
     assert "ex5" not in text and "ex1_solve" not in text and "vi_solve" not in text
@@ -95,10 +96,11 @@ def test_reference_error_is_measured_without_algorithm_c(tmp_path):
     _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
                       "--", f"{tmp_path}/r/para/ex4-u1/reference-error.csv")
     jobs = job_counts(text)
-    assert set(jobs) == {"para_solve", "para_reference_operator", "para_reference_error"}
+    assert set(jobs) == {"para_reference_solve", "para_reference_operator",
+                         "para_reference_error"}
     assert jobs["para_reference_error"] == 1
     # the two coarser runs of the family (the reference itself is the committed copy)
-    assert jobs["para_solve"] == 2 and "ex4-u2" not in text
+    assert jobs["para_reference_solve"] == 2 and "ex4-u2" not in text
 
 
 def test_every_paper_figure_is_a_default_target(tmp_path):

@@ -249,7 +249,8 @@ def para_tau_factor(wildcards):
 
 def committed_para_reference(problem, kind="npz"):
     """The committed copy of the reference run of a parabolic problem (written by
-    para_reference_large): its time steps (kind 'npz', U in single precision) or its row ('csv')."""
+    para_reference_commit): its time steps (kind 'npz', U in single precision) or its row
+    ('csv')."""
     return Path(workflow.basedir) / PARA["reference"]["committed"] / f"{problem}-parabolic.{kind}"
 
 

@@ -11,7 +11,7 @@ rule para_solve:
         f"{RES}/benchmarks/para/{{problem}}_{{family}}_{{tag}}.tsv"
     wildcard_constraints:
         problem="|".join(PARA_PROBLEMS),
-        family="uniform|graded|graded-sr|reference",
+        family="uniform|graded|graded-sr",
     params:
         example=para_example,
         data=para_data,
@@ -26,6 +26,15 @@ rule para_solve:
         ENV
     script:
         "../scripts/para_solve.py"
+
+
+# The runs of the reference's family (the reference and its coarser runs): para_solve's job
+# under a name of its own, so that a cluster profile gives the reference the hour it needs
+# at the paper-scale tier while the series' runs keep their minutes
+use rule para_solve as para_reference_solve with:
+    wildcard_constraints:
+        problem="|".join(PARA_PROBLEMS),
+        family="reference",
 
 
 # The reference's operator, assembled once (most of a minute at the default tier's size)

@@ -1,5 +1,6 @@
 """Replace the committed copy of a parabolic reference run (rule para_reference_commit, one
-problem; para_reference_large, all): the time steps in single precision (U; λ_H only where a table needs it), and the run's row.
+problem; para_reference_large, all): the time steps in single precision (U; λ_H only where
+a table needs it), and the run's row.
 
 Single precision changes u_ref by a relative 6·10⁻⁸, orders of magnitude below the
 reference's own error and the errors it measures (parabolic-runs.md)."""
