@@ -185,9 +185,19 @@ def test_parabolic_reference_copy_is_single_precision_and_keeps_what_is_used(tmp
         pd.DataFrame([{"tag": "h0.025", "t_wall": 1.0}]).to_csv(row, index=False)
         runs[problem] = (str(npz), str(row), (str(tmp_path / f"c-{problem}-parabolic.npz"),
                                               str(tmp_path / f"c-{problem}-parabolic.csv")))
+    error = tmp_path / "reference-error.csv"
+    pd.DataFrame([{"reference_error": 0.07, "reference_d23": 0.04}]).to_csv(error, index=False)
+    with pytest.raises(ValueError, match="committed"):
+        copy.main("ex4-u1", *runs["ex4-u1"], multipliers=[], note=tmp_path / "n.txt",
+                  error=error)
     for problem, (npz, row, committed) in runs.items():
-        copy.main(problem, npz, row, committed, multipliers=["ex5"],
-                  note=tmp_path / f"{problem}-note.txt")
+        extra = {"error": error} if problem == "ex4-u1" else {}
+        to = (*committed, str(tmp_path / f"c-{problem}-reference-error.csv")) if extra else committed
+        copy.main(problem, npz, row, to, multipliers=["ex5"],
+                  note=tmp_path / f"{problem}-note.txt", **extra)
+    assert (tmp_path / "c-ex4-u1-reference-error.csv").read_text() == error.read_text()
+    assert not (tmp_path / "c-ex5-reference-error.csv").exists()
+    assert not (tmp_path / "n.txt").exists()
     for problem, (npz, row, (npz_to, row_to)) in runs.items():
         assert (tmp_path / f"{problem}-note.txt").read_text().startswith(f"{npz} (")
         d = np.load(npz_to)
@@ -218,6 +228,25 @@ def test_algorithm_c_table_rates_of_the_estimator_parts():
     assert np.isnan(row["η_initial rate (same runs)"])
     assert row["time share of η² (finest)"] == pytest.approx(time2[-1] / (time2[-1] + space2[-1]))
     assert row["error rate (fitted runs)"] == pytest.approx(-0.4, abs=1e-12)
+
+
+def test_larger_tier_reference_rows_are_named_by_their_file(tmp_path):
+    """The finer references committed by a larger tier: one row per file, its problem
+    read off the file name, the columns those of this tier's reference table."""
+    summary = script("parabolic_summary")
+    rows = {"reference_operator": "compressed", "reference_dofs": 113312,
+            "reference_steps": 270, "reference_spacetime_dofs": 30594240,
+            "reference_t_wall": 2429.0, "reference_peak_mem_mb": 2497.0, "reference_d12": 0.065,
+            "reference_d23": 0.040, "reference_ratio": 0.62, "reference_error": 0.066}
+    paths = []
+    for problem, scale in (("ex4-u1", 1.0), ("ex4-u2", 2.0)):
+        path = tmp_path / f"{problem}-reference-error.csv"
+        pd.DataFrame([{**rows, "reference_error": 0.066 * scale}]).to_csv(path, index=False)
+        paths.append(path)
+    table = summary.larger_reference_table(paths)
+    assert list(table.problem) == ["ex4-u1", "ex4-u2"]
+    assert list(table.columns) == ["problem", *summary.REFERENCE_COLUMNS.values()]
+    assert table.reference_error.tolist() == pytest.approx([0.066, 0.132])
 
 
 def test_time_split_page_fits_each_refinement_through_the_passes_above_the_margin():

@@ -247,11 +247,24 @@ def para_tau_factor(wildcards):
     return PARA["tau_factor"][wildcards.family]
 
 
-def committed_para_reference(problem, kind="npz"):
+def committed_para_reference(problem, kind="npz", root=None):
     """The committed copy of the reference run of a parabolic problem (written by
-    para_reference_commit): its time steps (kind 'npz', U in single precision) or its row
-    ('csv')."""
-    return Path(workflow.basedir) / PARA["reference"]["committed"] / f"{problem}-parabolic.{kind}"
+    para_reference_commit): its time steps (kind 'npz', U in single precision), its row
+    ('csv') or its measured own error (para_reference_error's row, 'error'); root: the
+    directory of the copies (default parabolic.reference.committed)."""
+    name = f"{problem}-reference-error.csv" if kind == "error" else f"{problem}-parabolic.{kind}"
+    return Path(workflow.basedir) / (root or PARA["reference"]["committed"]) / name
+
+
+def larger_reference_errors(wildcards=None):
+    """The measured errors of the finer references of the same families committed by a
+    larger tier (parabolic.reference.larger; empty when null), for the problems that have
+    one: shown beside this tier's reference errors in parabolic-runs.md."""
+    root = PARA["reference"].get("larger")
+    if not root:
+        return []
+    found = [committed_para_reference(p, "error", root) for p in PARA_PROBLEMS]
+    return [str(f) for f in found if f.exists()]
 
 
 def para_reference_parameters(wildcards):

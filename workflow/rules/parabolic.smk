@@ -275,6 +275,7 @@ rule fig12:
 rule parabolic_summary:
     input:
         csv=expand(rules.para_errors.output.csv, problem=PARA_PROBLEMS),
+        larger=larger_reference_errors,
     output:
         md=report(
             f"{OUT}/parabolic-runs.md",
@@ -412,13 +413,14 @@ rule para_reference_commit:
                            tag=para_reference_tag(w.problem)),
         row=lambda w: path(rules.para_solve.output.row, problem=w.problem, family="reference",
                            tag=para_reference_tag(w.problem)),
+        error=rules.para_reference_error.output.csv,
     output:
         note=f"{RES}/para/{{problem}}/reference-committed.txt",
     wildcard_constraints:
         problem="|".join(PARA_PROBLEMS),
     params:
-        committed=lambda w: (str(committed_para_reference(w.problem)),
-                             str(committed_para_reference(w.problem, "csv"))),
+        committed=lambda w: tuple(str(committed_para_reference(w.problem, kind))
+                                  for kind in ("npz", "csv", "error")),
         multipliers=["ex5"],    # λ_H kept for ex5-free-boundary.md
     log:
         f"{RES}/logs/para/{{problem}}_reference_commit.log",

@@ -17,12 +17,15 @@ logger = script_logger("para_reference_copy")
 KEEP = ("p", "t", "pc", "tc", "times", "s", "free")
 
 
-def main(problem, npz, row, committed, multipliers, note, log=None):
+def main(problem, npz, row, committed, multipliers, note, log=None, error=None):
     """Copy the reference run of ``problem`` (npz, its row) to ``committed`` (npz path, row
-    path); multipliers: the problems whose λ_H is kept; note: what was copied where."""
+    path, and the path of its measured error when ``error``, para_reference_error's row, is
+    given); multipliers: the problems whose λ_H is kept; note: what was copied where."""
     if log is not None:
         log_to(log)
-    npz_to, row_to = committed
+    npz_to, row_to = committed[:2]
+    if error is not None and len(committed) != 3:
+        raise ValueError(f"committed must name three paths when error is given; got {committed}")
     d = np.load(npz)
     keep = {k: d[k] for k in KEEP}
     keep["U"] = d["U"].astype(np.float32)
@@ -31,15 +34,17 @@ def main(problem, npz, row, committed, multipliers, note, log=None):
     with atomic_path(npz_to) as tmp:
         with open(tmp, "wb") as f:
             np.savez_compressed(f, **keep)
-    with atomic_path(row_to) as tmp:
-        shutil.copyfile(row, tmp)
+    copies = [(row, row_to)] + ([(error, committed[2])] if error is not None else [])
+    for src, dst in copies:
+        with atomic_path(dst) as tmp:
+            shutil.copyfile(src, tmp)
     logger.info("%s (%s) -> %s", npz, ", ".join(sorted(keep)), npz_to)
     with atomic_path(note) as tmp:
         Path(tmp).write_text(f"{npz} ({', '.join(sorted(keep))}) -> {npz_to}\n"
-                             f"{row} -> {row_to}\n")
+                             + "".join(f"{src} -> {dst}\n" for src, dst in copies))
 
 
 if __name__ == "__main__":
     main(snakemake.wildcards.problem, snakemake.input.npz, snakemake.input.row,  # noqa: F821
          snakemake.params.committed, snakemake.params.multipliers,  # noqa: F821
-         snakemake.output.note, snakemake.log[0])  # noqa: F821
+         snakemake.output.note, snakemake.log[0], snakemake.input.error)  # noqa: F821

@@ -1,5 +1,7 @@
 """Tables of every parabolic run, of the reference runs and of Algorithm C's passes, and
 the error against wall time (Examples 4, 5)."""
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 
@@ -29,6 +31,18 @@ def reference_table(df):
                      / d.spacetime_dofs.max(),
                      "finest adaptive error": finest.error.get("adaptive", np.nan),
                      "finest error / reference_error": d.error.min() / ref.reference_error})
+    return pd.DataFrame(rows)
+
+
+def larger_reference_table(paths):
+    """One row per committed <problem>-reference-error.csv of a larger tier: its reference
+    run and measured error, under the names of :func:`reference_table`."""
+    rows = []
+    for path in paths:
+        ref = pd.read_csv(path).iloc[0]
+        problem = Path(path).name.removesuffix("-reference-error.csv")
+        rows.append({"problem": problem, **{name: ref[c] for c, name in
+                                            REFERENCE_COLUMNS.items()}})
     return pd.DataFrame(rows)
 
 
@@ -74,7 +88,9 @@ def algorithm_c_table(df):
 PARTS = ("space", "time", "contact", "initial")    # the parts of η² (Theorem 6.18)
 
 
-def main(csvs, md, png):
+def main(csvs, md, png, larger=()):
+    """csvs: para_errors' tables; larger: the measured errors of finer references of the
+    same families committed by a larger tier (larger_reference_table)."""
     df = pd.concat([pd.read_csv(c) for c in csvs], ignore_index=True)
     df["efficiency"] = df.eta / df.error
     cols = ["problem", "family", "tag", "dofs", "steps", "spacetime_dofs", "error", "eta",
@@ -92,6 +108,14 @@ def main(csvs, md, png):
         tmp.write_text("Reference runs (`t_wall`, `peak_mem_mb` of the run itself) and their "
                        "measured error:\n\n"
                        + reference_table(df).to_markdown(index=False, floatfmt=".4g")
+                       + ("" if not len(larger) else
+                          "\n\nThe same families one level finer: the reference of the "
+                          "paper-scale tier (committed, `parabolic.reference.larger`), its "
+                          "error measured the same way. Its `d12` is this tier's `d23` again "
+                          "(with that tier's quadrature), its `d23` the distance of this tier's "
+                          "reference from it:\n\n"
+                          + larger_reference_table(larger).to_markdown(index=False,
+                                                                       floatfmt=".4g"))
                        + "\n\nAlgorithm C: rates of the error and of the estimator η over the "
                        "passes whose error exceeds 3× `reference_error`, the same for each "
                        "part of η (η_part = √ of its share of η²), and the efficiency "
@@ -110,4 +134,5 @@ def main(csvs, md, png):
 
 if __name__ == "__main__":
     log_to(snakemake.log[0])  # noqa: F821
-    main(list(snakemake.input.csv), snakemake.output.md, snakemake.output.png)  # noqa: F821
+    main(list(snakemake.input.csv), snakemake.output.md, snakemake.output.png,  # noqa: F821
+         list(snakemake.input.larger))  # noqa: F821
