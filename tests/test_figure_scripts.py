@@ -249,6 +249,28 @@ def test_larger_tier_reference_rows_are_named_by_their_file(tmp_path):
     assert table.reference_error.tolist() == pytest.approx([0.066, 0.132])
 
 
+def test_passes_against_a_larger_reference_are_shown_only_for_the_same_passes(tmp_path):
+    """Each pass's error and local slope against both references, side by side; a
+    committed table of other passes (another tag or size) is left out."""
+    summary = script("parabolic_summary")
+    n = np.array([565.0, 4650.0, 13855.0])
+    ours = pd.DataFrame({"problem": "ex4-u1", "family": "adaptive", "tag": ["it0", "it1", "it2"],
+                         "spacetime_dofs": n, "error": 0.5 * (n / n[0]) ** -0.3})
+    df = pd.concat([ours, ours.assign(family="uniform", tag=["L2", "L3", "L4"])])
+    same = tmp_path / "ex4-u1-coarser-tier-errors.csv"
+    df.assign(error=df.error * 1.05).to_csv(same, index=False)
+    table = summary.larger_reference_passes(df, [same])
+    assert table["pass"].tolist() == [0, 1, 2]
+    np.testing.assert_allclose(table["error (larger reference)"], 1.05 * ours.error)
+    np.testing.assert_allclose(table["local slope"].iloc[1:], -0.3)
+    np.testing.assert_allclose(table["local slope (larger reference)"].iloc[1:], -0.3)
+    assert np.isnan(table["local slope"].iloc[0])
+    other = tmp_path / "other" / "ex4-u1-coarser-tier-errors.csv"
+    other.parent.mkdir()
+    df.assign(spacetime_dofs=df.spacetime_dofs + 1).to_csv(other, index=False)
+    assert summary.larger_reference_passes(df, [other]).empty
+
+
 def test_time_split_page_fits_each_refinement_through_the_passes_above_the_margin():
     """Errors √(S² + (T/m)²) with a space part S ∝ N^(−0.2) and a time part T ∝ N^(−0.5):
     the page fits each m over the passes above 3× the reference's error, against the

@@ -252,19 +252,23 @@ def committed_para_reference(problem, kind="npz", root=None):
     para_reference_commit): its time steps (kind 'npz', U in single precision), its row
     ('csv') or its measured own error (para_reference_error's row, 'error'); root: the
     directory of the copies (default parabolic.reference.committed)."""
-    name = f"{problem}-reference-error.csv" if kind == "error" else f"{problem}-parabolic.{kind}"
+    name = {"error": f"{problem}-reference-error.csv",
+            "runs": f"{problem}-coarser-tier-errors.csv"}.get(kind, f"{problem}-parabolic.{kind}")
     return Path(workflow.basedir) / (root or PARA["reference"]["committed"]) / name
 
 
-def larger_reference_errors(wildcards=None):
-    """The measured errors of the finer references of the same families committed by a
-    larger tier (parabolic.reference.larger; empty when null), for the problems that have
-    one: shown beside this tier's reference errors in parabolic-runs.md."""
-    root = PARA["reference"].get("larger")
-    if not root:
-        return []
-    found = [committed_para_reference(p, "error", root) for p in PARA_PROBLEMS]
-    return [str(f) for f in found if f.exists()]
+def larger_committed(kind):
+    """Input function: what a larger tier committed beside its finer references of the same
+    families (parabolic.reference.larger; nothing when null), for the problems that have it:
+    their measured errors (kind 'error') or the errors of a coarser tier's runs measured
+    against them (kind 'runs', para_errors_commit); shown in parabolic-runs.md."""
+    def files(wildcards=None):
+        root = PARA["reference"].get("larger")
+        if not root:
+            return []
+        found = [committed_para_reference(p, kind, root) for p in PARA_PROBLEMS]
+        return [str(f) for f in found if f.exists()]
+    return files
 
 
 def para_reference_parameters(wildcards):

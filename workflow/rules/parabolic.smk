@@ -275,7 +275,8 @@ rule fig12:
 rule parabolic_summary:
     input:
         csv=expand(rules.para_errors.output.csv, problem=PARA_PROBLEMS),
-        larger=larger_reference_errors,
+        larger=larger_committed("error"),
+        larger_runs=larger_committed("runs"),
     output:
         md=report(
             f"{OUT}/parabolic-runs.md",
@@ -430,6 +431,27 @@ rule para_reference_commit:
         ENV
     script:
         "../scripts/para_reference_copy.py"
+
+
+# The errors of this configuration's runs, committed beside its references: with
+# config/ex4-paper-reference.yaml, the default tier's runs against the paper-scale references
+rule para_errors_commit:
+    input:
+        csv=rules.para_errors.output.csv,
+    output:
+        note=f"{RES}/para/{{problem}}/errors-committed.txt",
+    wildcard_constraints:
+        problem="|".join(PARA_PROBLEMS),
+    params:
+        committed=lambda w: str(committed_para_reference(w.problem, "runs")),
+    log:
+        f"{RES}/logs/para/{{problem}}_errors_commit.log",
+    benchmark:
+        f"{RES}/benchmarks/para/{{problem}}_errors_commit.tsv"
+    conda:
+        ENV
+    script:
+        "../scripts/para_errors_copy.py"
 
 
 # `snakemake --cores 2 para_reference_large --forcerun para_solve`: the same for every problem

@@ -6,9 +6,11 @@ import numpy as np
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path
-from fracfem_workflow.logs import log_to
+from fracfem_workflow.logs import log_to, script_logger
 from fracfem_workflow.plotstyle import ERROR_LABELS, plt, problem_title, save, time_panel
 from fracfem_workflow.report import eta_energy_time, fit_mask, fit_rate, masked_rate
+
+logger = script_logger("parabolic_summary")
 
 # columns of para_errors' tables shown in the reference table, under these names
 REFERENCE_COLUMNS = {"reference_operator": "operator used", "reference_dofs": "dofs",
@@ -43,6 +45,34 @@ def larger_reference_table(paths):
         problem = Path(path).name.removesuffix("-reference-error.csv")
         rows.append({"problem": problem, **{name: ref[c] for c, name in
                                             REFERENCE_COLUMNS.items()}})
+    return pd.DataFrame(rows)
+
+
+def larger_reference_passes(df, paths):
+    """Algorithm C's passes of this tier against its reference and against a larger tier's
+    finer one (paths: <problem>-coarser-tier-errors.csv, para_errors_commit): the error and
+    local slope of each pass by both.  A problem whose committed passes are not this run's
+    (other tags or space-time DOFs) is left out."""
+    rows = []
+    for path in paths:
+        problem = Path(path).name.removesuffix("-coarser-tier-errors.csv")
+        ours = df[(df.problem == problem) & (df.family == "adaptive")].sort_values(
+            "spacetime_dofs")
+        theirs = pd.read_csv(path)
+        theirs = theirs[theirs.family == "adaptive"].sort_values("spacetime_dofs")
+        if (len(ours) != len(theirs) or list(ours.tag) != list(theirs.tag)
+                or not np.array_equal(ours.spacetime_dofs.to_numpy(),
+                                      theirs.spacetime_dofs.to_numpy())):
+            logger.warning("%s: other passes than this run's %s; left out", path, problem)
+            continue
+        n = ours.spacetime_dofs.to_numpy(float)
+        slope = lambda e: np.r_[np.nan, np.diff(np.log(e)) / np.diff(np.log(n))]  # noqa: E731
+        e1, e2 = ours.error.to_numpy(float), theirs.error.to_numpy(float)
+        rows += [{"problem": problem, "pass": int(tag.removeprefix("it")),
+                  "spacetime_dofs": int(n[k]), "error": e1[k], "local slope": slope(e1)[k],
+                  "error (larger reference)": e2[k],
+                  "local slope (larger reference)": slope(e2)[k]}
+                 for k, tag in enumerate(ours.tag)]
     return pd.DataFrame(rows)
 
 
@@ -88,9 +118,10 @@ def algorithm_c_table(df):
 PARTS = ("space", "time", "contact", "initial")    # the parts of η² (Theorem 6.18)
 
 
-def main(csvs, md, png, larger=()):
+def main(csvs, md, png, larger=(), larger_runs=()):
     """csvs: para_errors' tables; larger: the measured errors of finer references of the
-    same families committed by a larger tier (larger_reference_table)."""
+    same families committed by a larger tier (larger_reference_table); larger_runs: this
+    tier's runs measured against them (larger_reference_passes)."""
     df = pd.concat([pd.read_csv(c) for c in csvs], ignore_index=True)
     df["efficiency"] = df.eta / df.error
     cols = ["problem", "family", "tag", "dofs", "steps", "spacetime_dofs", "error", "eta",
@@ -116,6 +147,7 @@ def main(csvs, md, png, larger=()):
                           "reference from it:\n\n"
                           + larger_reference_table(larger).to_markdown(index=False,
                                                                        floatfmt=".4g"))
+                       + _larger_passes_section(df, larger_runs)
                        + "\n\nAlgorithm C: rates of the error and of the estimator η over the "
                        "passes whose error exceeds 3× `reference_error`, the same for each "
                        "part of η (η_part = √ of its share of η²), and the efficiency "
@@ -132,7 +164,17 @@ def main(csvs, md, png, larger=()):
                        + table.to_markdown(index=False, floatfmt=".4g") + "\n")
 
 
+def _larger_passes_section(df, paths):
+    table = larger_reference_passes(df, paths) if len(paths) else pd.DataFrame()
+    if table.empty:
+        return ""
+    return ("\n\nAlgorithm C's passes of this tier measured against its reference and against "
+            "that finer one (`config/ex4-paper-reference.yaml`: the same runs; only the "
+            "reference and the quadrature differ):\n\n"
+            + table.to_markdown(index=False, floatfmt=".4g"))
+
+
 if __name__ == "__main__":
     log_to(snakemake.log[0])  # noqa: F821
     main(list(snakemake.input.csv), snakemake.output.md, snakemake.output.png,  # noqa: F821
-         list(snakemake.input.larger))  # noqa: F821
+         list(snakemake.input.larger), list(snakemake.input.larger_runs))  # noqa: F821

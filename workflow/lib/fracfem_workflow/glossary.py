@@ -150,6 +150,9 @@ GROUPS = [
         "reference / finest spacetime_dofs": "how much larger the reference is than the "
                                              "largest run it judges",
         "finest adaptive error": "error of the last Algorithm C pass",
+        ("error (larger reference)", "local slope (larger reference)"):
+            "`error` and `local slope` of the same pass measured against the paper-scale "
+            "tier's finer reference of the same family (`parabolic.reference.larger`)",
         "finest error / reference_error": "smallest error of any run over the reference's "
                                           "own: the margin of the 3× rule",
         "passes": "Algorithm C passes run",

@@ -1,0 +1,27 @@
+"""Commit a parabolic problem's error table (para_errors) beside its reference's committed
+copy (rule para_errors_commit): with config/ex4-paper-reference.yaml, the errors of the
+default tier's runs against the paper-scale tier's references, which the default tier's
+parabolic-runs.md compares with its own."""
+import shutil
+from pathlib import Path
+
+from fracfem_workflow.io import atomic_path
+from fracfem_workflow.logs import log_to, script_logger
+
+logger = script_logger("para_errors_copy")
+
+
+def main(csv, committed, note, log=None):
+    """Copy ``csv`` to ``committed``; note: what was copied where."""
+    if log is not None:
+        log_to(log)
+    with atomic_path(committed) as tmp:
+        shutil.copyfile(csv, tmp)
+    logger.info("%s -> %s", csv, committed)
+    with atomic_path(note) as tmp:
+        Path(tmp).write_text(f"{csv} -> {committed}\n")
+
+
+if __name__ == "__main__":
+    main(snakemake.input.csv, snakemake.params.committed,  # noqa: F821
+         snakemake.output.note, snakemake.log[0])  # noqa: F821
