@@ -37,7 +37,7 @@ from .estimators import estimate, estimate_laplace
 from .parabolic import (Stepper, TimeStep, initial_projection, solve_parabolic,
                         time_grid, time_steps)
 from .spacetime_adaptive import (IterationRecord, Slab, algorithm_c,
-                                 algorithm_c_steps, solve_slabs)
+                                 algorithm_c_steps, load_slabs, save_slabs, solve_slabs)
 from .spacetime_estimators import space_time_indicators
 from .stepsize import time_step
 
@@ -74,7 +74,7 @@ __all__ = [
     "time_grid", "time_step", "Stepper", "TimeStep", "time_steps", "solve_parabolic",
     "initial_projection", "heat_solution", "heat_source", "heat_error",
     # space-time indicators (Theorem 6.18, Lemma 6.20) and Algorithm C
-    "space_time_indicators", "algorithm_c", "algorithm_c_steps", "solve_slabs", "Slab",
+    "space_time_indicators", "algorithm_c", "algorithm_c_steps", "solve_slabs", "save_slabs", "load_slabs", "Slab",
     "IterationRecord",
     # the paper's examples, built from their parameters, and series meshes
     "EXAMPLES", "Example1", "Example2", "Example3", "Example4", "Example5",

@@ -42,6 +42,8 @@ __all__ = [
     "algorithm_c_steps",
     "algorithm_c",
     "solve_slabs",
+    "save_slabs",
+    "load_slabs",
 ]
 
 logger = logging.getLogger(__name__)
@@ -86,6 +88,7 @@ class IterationRecord:
     timings: dict = field(default_factory=dict)  # assemble, solve, estimate, mark, refine
     stop: str | None = None
     pieces: list | None = None       # keep_steps=True: (t_{k−1}, t_k, fine mesh, u^k)
+    next_slabs: list | None = None   # the space-time mesh of the next pass (None: it stops)
 
 
 def _snapshot(t_out, step, slab_index, st):
@@ -345,6 +348,73 @@ def _refine_slabs(slabs, marked, slab_totals, bisect_fraction):
     return new, bisected
 
 
+def _check_slabs(slabs, T, min_steps) -> list:
+    """The slabs as a list, checked: :class:`Slab` objects, contiguous, covering [0, T],
+    each with an integer ``n_steps`` ≥ ``min_steps``."""
+    slabs = list(slabs)
+    if not slabs or not all(isinstance(sl, Slab) for sl in slabs):
+        raise ValueError("slabs must be a non-empty list of Slab (IterationRecord.slabs)")
+    ends = np.array([[sl.a, sl.b] for sl in slabs], dtype=float)
+    gaps = np.abs(ends[1:, 0] - ends[:-1, 1])
+    tol = 1e-12 * T
+    if (not np.all(np.isfinite(ends)) or abs(ends[0, 0]) > tol
+            or abs(ends[-1, 1] - T) > tol or np.any(gaps > tol)
+            or np.any(ends[:, 1] <= ends[:, 0])):
+        raise ValueError(f"slabs must be contiguous and cover [0, T] = [0, {T}]; "
+                         f"got [a, b] = {ends.tolist()}")
+    bad = [j for j, sl in enumerate(slabs) if not (isinstance(sl.n_steps, numbers.Integral)
+                                                    and sl.n_steps >= min_steps)]
+    if bad:
+        raise ValueError(f"slabs {bad} have n_steps < {min_steps}: pass the slabs of a "
+                         "solved pass (IterationRecord.slabs or .next_slabs)")
+    return slabs
+
+
+def save_slabs(path, slabs, **arrays) -> None:
+    """Write a space-time mesh (a list of :class:`Slab`: a, b, n_steps, coarse mesh)
+    to the ``.npz`` file ``path``, each distinct coarse mesh once, so that slabs
+    sharing a mesh share it again when read by :func:`load_slabs` (they pass u^k
+    unchanged).  ``arrays``: further arrays to store beside it (names not starting
+    with ``slab_`` or ``coarse_``).  What a pass needs to continue Algorithm C from
+    (:func:`algorithm_c` with ``slabs=`` and ``first_iteration=``)."""
+    slabs = list(slabs)
+    if not slabs or not all(isinstance(sl, Slab) for sl in slabs):
+        raise ValueError("slabs must be a non-empty list of Slab")
+    clash = [k for k in arrays if k.startswith(("slab_", "coarse_"))]
+    if clash:
+        raise ValueError(f"array names {clash} are reserved for the slabs")
+    index, meshes = {}, []
+    for sl in slabs:
+        if id(sl.coarse) not in index:
+            index[id(sl.coarse)] = len(meshes)
+            meshes.append(sl.coarse)
+    out = dict(slab_a=np.array([sl.a for sl in slabs], dtype=float),
+               slab_b=np.array([sl.b for sl in slabs], dtype=float),
+               slab_n_steps=np.array([sl.n_steps for sl in slabs], dtype=np.int64),
+               slab_mesh=np.array([index[id(sl.coarse)] for sl in slabs], dtype=np.int64))
+    for m, mesh in enumerate(meshes):
+        out[f"coarse_p{m}"] = np.asarray(mesh.p, dtype=float)
+        out[f"coarse_t{m}"] = np.asarray(mesh.t, dtype=np.int64)
+    np.savez(path, **out, **arrays)
+
+
+def load_slabs(path) -> tuple[list, dict]:
+    """(slabs, arrays) written by :func:`save_slabs`: the slabs with their step counts
+    and coarse meshes (one object per distinct mesh), and the other arrays."""
+    from skfem import MeshTri
+    with np.load(path, allow_pickle=False) as d:
+        data = {k: d[k] for k in d.files}
+    meshes, m = [], 0
+    while f"coarse_p{m}" in data:
+        meshes.append(MeshTri(data.pop(f"coarse_p{m}"), data.pop(f"coarse_t{m}")))
+        m += 1
+    a, b = data.pop("slab_a"), data.pop("slab_b")
+    n, which = data.pop("slab_n_steps"), data.pop("slab_mesh")
+    slabs = [Slab(float(a[j]), float(b[j]), meshes[int(which[j])], n_steps=int(n[j]))
+             for j in range(len(a))]
+    return slabs, data
+
+
 # ------------------------------------------------------------------ Algorithm C
 
 
@@ -403,21 +473,7 @@ def solve_slabs(make_problem, slabs, u0, *, T: float, time_refinement: int = 1,
                     solver_options=solver_options, time_quadrature=time_quadrature,
                     order=order, c_tau=None, n_min=1, output_times=output_times,
                     estimator_options=estimator_options, keep_steps=keep_steps)
-    slabs = list(slabs)
-    if not slabs or not all(isinstance(sl, Slab) for sl in slabs):
-        raise ValueError("slabs must be a non-empty list of Slab (IterationRecord.slabs)")
-    ends = np.array([[sl.a, sl.b] for sl in slabs], dtype=float)
-    gaps = np.abs(ends[1:, 0] - ends[:-1, 1])
-    tol = 1e-12 * run.T
-    if (not np.all(np.isfinite(ends)) or abs(ends[0, 0]) > tol
-            or abs(ends[-1, 1] - run.T) > tol or np.any(gaps > tol)
-            or np.any(ends[:, 1] <= ends[:, 0])):
-        raise ValueError(f"slabs must be contiguous and cover [0, T] = [0, {run.T}]; "
-                         f"got [a, b] = {ends.tolist()}")
-    bad = [j for j, sl in enumerate(slabs) if not (isinstance(sl.n_steps, numbers.Integral)
-                                                    and sl.n_steps >= 1)]
-    if bad:
-        raise ValueError(f"slabs {bad} have n_steps < 1: pass the slabs of a solved pass")
+    slabs = _check_slabs(slabs, run.T, min_steps=1)
     cache_bytes = _cache_bytes(cache_bytes)
     t_start = time.perf_counter()
     mine = [Slab(sl.a, sl.b, sl.coarse, n_steps=time_refinement * int(sl.n_steps))
@@ -438,7 +494,8 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                       time_quadrature: int = 3, solver_options: dict | None = None,
                       estimator_options: dict | None = None,
                       callback=None, keep_steps: bool = False,
-                      cache_bytes: float | str | None = None
+                      cache_bytes: float | str | None = None,
+                      slabs: list | None = None, first_iteration: int = 0
                       ) -> Iterator[IterationRecord]:
     """Algorithm C as a generator of :class:`IterationRecord` (see :func:`algorithm_c`)."""
     theta = _check_theta(theta)
@@ -456,13 +513,24 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                     order=order, c_tau=c_tau, n_min=n_min, output_times=output_times,
                     estimator_options=estimator_options, keep_steps=keep_steps)
     cache_bytes = _cache_bytes(cache_bytes)
+    if not (isinstance(first_iteration, numbers.Integral)
+            and 0 <= first_iteration < iterations):
+        raise ValueError(f"first_iteration={first_iteration!r} must be an integer in "
+                         f"[0, iterations) = [0, {iterations})")
+    if slabs is None:
+        if first_iteration:
+            raise ValueError(f"first_iteration={first_iteration} needs the slabs of that "
+                             "pass (slabs=IterationRecord.next_slabs or load_slabs(...))")
+        slabs = [Slab(0.0, run.T, coarse0)]
+    else:                                   # continue: that pass's mesh, τ never grows
+        slabs = [Slab(sl.a, sl.b, sl.coarse, n_steps=int(sl.n_steps))
+                 for sl in _check_slabs(slabs, run.T, min_steps=0)]
 
     cache: OrderedDict = OrderedDict()      # id(coarse) → (coarse, Stepper), LRU first
-    slabs = [Slab(0.0, run.T, coarse0)]
     clock = Ticker(0.0)
     logger.info("Algorithm C: at most %d iterations on [0, %g], marking %s, theta %g, "
                 "c_tau %g, tol %s", iterations, run.T, marking, theta, c_tau, tol)
-    for it in range(iterations):
+    for it in range(first_iteration, iterations):
         t_iter = time.perf_counter()
         sweep = _sweep(run, slabs, cache, make_problem, cache_bytes)
         rec = sweep.record(it, slabs)
@@ -484,6 +552,8 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                 keep = {id(sl.coarse) for sl in slabs}
                 cache = OrderedDict((k, v) for k, v in cache.items() if k in keep)
                 tim["refine"] = time.perf_counter() - t0
+                rec.next_slabs = [Slab(sl.a, sl.b, sl.coarse, n_steps=sl.n_steps)
+                                  for sl in slabs]
         tim["total"] = time.perf_counter() - t_iter
         logger.info("Algorithm C iteration %d: %d slabs, %d time steps, %d DOFs per step "
                     "(max), %d space-time DOFs, eta %.4e, %d solver iterations, %s marked, "
@@ -494,6 +564,8 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
                     len(rec.bisected or ()), tim["total"], clock.elapsed)
         if callback is not None and callback(rec) and rec.stop is None:
             rec.stop = "callback"
+        if rec.stop is not None:
+            rec.next_slabs = None
         if rec.stop is not None:
             logger.info("Algorithm C stops after iteration %d: %s", it, rec.stop)
         yield rec
@@ -560,6 +632,13 @@ def algorithm_c(make_problem, coarse0, u0, *, T: float, theta: float, iterations
     callback : called with each record; a truthy return stops after it
     cache_bytes : bytes (a number, or a string such as '4G') the cached assembled
         problems may hold; None: the default above
+    slabs, first_iteration : continue a run instead of starting it: ``slabs`` is
+        the space-time mesh of pass ``first_iteration`` (``IterationRecord.next_slabs``
+        of the pass before it, or read back with :func:`load_slabs` after
+        :func:`save_slabs`), ``coarse0`` is then not used; ``iterations`` still
+        counts from pass 0.  The passes that follow are those of the uninterrupted
+        run: the same meshes and steps, and values to round-off (the cache of
+        assembled problems starts empty, as with a small ``cache_bytes``)
 
     Returns
     -------
@@ -578,7 +657,8 @@ def algorithm_c(make_problem, coarse0, u0, *, T: float, theta: float, iterations
     (obstacle), ``marked`` (per slab, coarse element indices; None on the last
     record), ``bisected`` (slab indices), ``timings`` ('assemble', 'solve',
     'estimate', 'mark', 'refine', 'total' seconds), ``stop`` ('iterations',
-    'tol', 'nothing marked', 'callback' or None).  A snapshot is a dict 't'
+    'tol', 'nothing marked', 'callback' or None), ``next_slabs`` (the refined
+    space-time mesh the next pass solves on; None when this pass is the last).  A snapshot is a dict 't'
     (requested), 't_step' (t_k of the step whose interval (t_{k−1}, t_k] holds t;
     t_0 for t = 0), 'k', 'slab', 'u' (all fine nodes), 'lam' (None at t = 0),
     'mesh' (fine), 'coarse'.

@@ -353,3 +353,64 @@ def test_pipeline_cost_sums_the_jobs_of_all_and_reads_gnu_time(tmp_path):
     log.write_text("not a time log\n")
     with pytest.raises(SystemExit, match="time -v"):
         cost.gnu_time(log)
+
+
+class _TimeLimit(Exception):
+    """Stands for the end of a job's allotted time."""
+
+
+def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch):
+    """para_adaptive ended after pass 1 (as by a time limit) and started again continues
+    from its checkpoint: the table and arrays are those of the job run through (errors,
+    η, DOFs to round-off), the continued pass is marked by `invocation`, and the
+    checkpoint goes once the outputs are written.  A checkpoint of other settings is
+    not continued."""
+    para_adaptive = script("para_adaptive")
+    m = ff.disk_uniform(2)
+    U = np.random.default_rng(1).standard_normal((3, m.p.shape[1]))
+    ref = tmp_path / "ref.npz"
+    np.savez(ref, p=m.p, t=m.t, times=np.array([0.0, 0.5, 1.0]), U=U, s=0.5)
+    args = dict(problem="ex4-u2", example="ex4",
+                data={"s": 0.5, "u0": 2.0, "height": 1.0, "slope": 4.0}, T=1.0, theta=0.5,
+                start_level=1, c_tau=1.0, max_spacetime_dofs=10 ** 9, max_iterations=3,
+                figure_iterations=[1], output_times=[0.0, 0.4, 1.0], tol=1e-10,
+                quadrature={}, ref=str(ref), operator="dense")
+
+    def outputs(d, **kw):
+        d.mkdir()
+        para_adaptive.main(**args, table=d / "it.csv", npz=d / "m.npz", **kw)
+        return pd.read_csv(d / "it.csv"), dict(np.load(d / "m.npz"))
+
+    whole, whole_arrays = outputs(tmp_path / "whole")
+    real = ff.algorithm_c_steps
+
+    def ends_after_pass_1(*a, **k):
+        for rec in real(*a, **k):
+            yield rec
+            if rec.iteration == 1:
+                raise _TimeLimit
+    ckpt = tmp_path / "cont" / "checkpoint.npz"
+    monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass_1)
+    with pytest.raises(_TimeLimit):
+        outputs(tmp_path / "cont", checkpoint=ckpt)
+    assert ckpt.exists() and not (tmp_path / "cont" / "it.csv").exists()
+    monkeypatch.setattr(ff, "algorithm_c_steps", real)
+    cont, cont_arrays = outputs(tmp_path / "cont2", checkpoint=ckpt)
+    assert not ckpt.exists()
+    assert cont.tag.tolist() == whole.tag.tolist() == ["it0", "it1", "it2"]
+    assert cont.invocation.tolist() == [0, 0, 1] and whole.invocation.tolist() == [0, 0, 0]
+    assert cont.spacetime_dofs.tolist() == whole.spacetime_dofs.tolist()
+    np.testing.assert_allclose(cont.eta, whole.eta, rtol=1e-12)
+    np.testing.assert_allclose(cont.error, whole.error, rtol=1e-10)
+    assert sorted(cont_arrays) == sorted(whole_arrays)
+    for k in ("iterations", "figure_iterations", "t_it2", "p_it1_1", "p_last_2"):
+        np.testing.assert_array_equal(cont_arrays[k], whole_arrays[k], err_msg=k)
+    np.testing.assert_allclose(cont_arrays["u"], whole_arrays["u"], rtol=0, atol=1e-12)
+    # a checkpoint made with other settings is not continued
+    monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass_1)
+    with pytest.raises(_TimeLimit):
+        outputs(tmp_path / "other", checkpoint=ckpt)
+    monkeypatch.setattr(ff, "algorithm_c_steps", real)
+    args["theta"] = 0.6
+    again, _ = outputs(tmp_path / "other2", checkpoint=ckpt)
+    assert again.invocation.tolist() == [0, 0, 0] and not ckpt.exists()

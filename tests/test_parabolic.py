@@ -676,6 +676,66 @@ def test_algorithm_c_slabs_cover_the_interval_and_refine_locally():
     assert len(calls) == len({id(c) for c in calls})
 
 
+def test_algorithm_c_continued_from_a_saved_pass_is_the_uninterrupted_run(tmp_path):
+    """A run stopped after pass 1 and continued from its saved next mesh (save_slabs,
+    load_slabs) solves pass 2 as the run that went on: the same slabs and steps, and
+    indicators and states the same up to round-off (its cache of assembled problems
+    starts empty: a mesh assembled again, as with any cache budget; two uninterrupted
+    runs agree bit for bit)."""
+    recs, _ = _ex4_run()
+    r1, r2 = recs[1], recs[2]
+    assert recs[-1].next_slabs is None and r1.bisected == [0]
+    path = tmp_path / "pass2.npz"
+    spacetime_adaptive.save_slabs(path, r1.next_slabs, iteration=np.array(2))
+    slabs, extra = spacetime_adaptive.load_slabs(path)
+    assert int(extra["iteration"]) == 2 and list(extra) == ["iteration"]
+    # the two halves of the bisected slab share one mesh object again
+    assert len(slabs) == 3 and slabs[0].coarse is slabs[1].coarse
+    assert slabs[2].coarse is not slabs[0].coarse
+    for got, want in zip(slabs, r1.next_slabs):
+        assert (got.a, got.b, got.n_steps) == (want.a, want.b, want.n_steps)
+        np.testing.assert_array_equal(got.coarse.p, want.coarse.p)
+        np.testing.assert_array_equal(got.coarse.t, want.coarse.t)
+    (cont,) = spacetime_adaptive.algorithm_c(
+        _ex4_problem(), None, 2.0, T=1.0, theta=0.5, iterations=3, slabs=slabs,
+        first_iteration=2, output_times=(0.0, 0.4, 0.8, 1.0))
+    assert cont.iteration == 2 and cont.stop == "iterations" and cont.dofs == r2.dofs
+    assert cont.eta == pytest.approx(r2.eta, rel=1e-12)
+    for key in ("space", "time", "initial"):
+        assert cont.eta_parts[key] == pytest.approx(r2.eta_parts[key], rel=1e-12), key
+    assert [(sl.a, sl.b, sl.n_steps, sl.n_free) for sl in cont.slabs] == \
+        [(sl.a, sl.b, sl.n_steps, sl.n_free) for sl in r2.slabs]
+    for key in ("t", "tau", "slab", "n_active"):
+        np.testing.assert_array_equal(cont.steps[key], r2.steps[key], err_msg=key)
+    for key in ("space", "time", "total"):
+        np.testing.assert_allclose(cont.steps[key], r2.steps[key], rtol=1e-11, err_msg=key)
+    for a, b in zip(cont.prism_eta2, r2.prism_eta2):
+        np.testing.assert_allclose(a, b, rtol=1e-11, atol=1e-14 * b.max())
+    for t_out in r2.outputs:
+        np.testing.assert_allclose(cont.outputs[t_out]["u"], r2.outputs[t_out]["u"],
+                                   rtol=0, atol=1e-12)
+    np.testing.assert_allclose(cont.final["lam"], r2.final["lam"], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(first_iteration=3), r"first_iteration=3 must be an integer in \[0, iterations\)"),
+    (dict(first_iteration=-1), "first_iteration=-1"),
+    (dict(first_iteration=1), "needs the slabs of that pass"),
+    (dict(slabs=[]), "non-empty list of Slab"),
+    (dict(slabs="abc"), "non-empty list of Slab"),
+])
+def test_algorithm_c_continued_bad_arguments(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        spacetime_adaptive.algorithm_c(_ex4_problem(), meshes.disk_uniform(1), 2.0, T=1.0,
+                                       theta=0.5, iterations=3, **kwargs)
+    coarse = meshes.disk_uniform(1)
+    half = [spacetime_adaptive.Slab(0.0, 0.5, coarse, n_steps=2)]
+    with pytest.raises(ValueError, match=r"cover \[0, T\]"):
+        spacetime_adaptive.algorithm_c(_ex4_problem(), None, 2.0, T=1.0, theta=0.5,
+                                       iterations=3, slabs=half, first_iteration=1)
+    with pytest.raises(ValueError, match="reserved"):
+        spacetime_adaptive.save_slabs("unused.npz", half, slab_x=np.ones(2))
+
 def test_algorithm_c_outputs():
     recs, _ = _ex4_run()
     r = recs[-1]

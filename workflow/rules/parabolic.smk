@@ -86,6 +86,9 @@ rule para_adaptive:
         output_times=PARA["output_times"],
         tol=SOLVER["tol"],
         quadrature=PARA_QUADRATURE,
+        # each pass that does not end the run; the job continues from it when started
+        # again (a time limit, a lost machine), and removes it when done
+        checkpoint=lambda wc: f"{RES}/para/{wc.problem}/adaptive/checkpoint.npz",
     threads: 2
     conda:
         ENV

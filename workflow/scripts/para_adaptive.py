@@ -1,34 +1,94 @@
-"""Examples 4, 5 on space-time adaptive meshes: Algorithm C, error per iteration."""
+"""Examples 4, 5 on space-time adaptive meshes: Algorithm C, error per iteration.
+
+Each pass that does not end the run leaves what the next one needs in a checkpoint
+file (its space-time mesh, the table rows and arrays so far); started again with the
+same settings, the job continues from there, so a job ended by a time limit or a lost
+machine loses at most the pass it was in.  The checkpoint goes when the outputs are
+written."""
+import json
+import os
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 import fracfem as ff
-from fracfem_workflow.io import peak_memory_mb, save_arrays, with_provenance, write_table
+from fracfem_workflow.io import (atomic_path, peak_memory_mb, provenance, save_arrays,
+                                 with_provenance, write_table)
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.runs import parameter_columns, start, stored_reference
 
 logger = script_logger("para_adaptive")
 
 
+def checkpoint_key(**settings) -> str:
+    """What a checkpoint must have been made with to be continued (JSON): the settings
+    that decide the passes and their errors; not the limits (max_spacetime_dofs,
+    max_iterations), which only decide where the run ends."""
+    return json.dumps(settings, sort_keys=True, default=str)
+
+
+def save_checkpoint(path, rec, key, rows, arrays, elapsed, t_eval, invocation):
+    """The state after pass rec.iteration: the next pass's mesh and what was recorded."""
+    with atomic_path(path, suffix=".npz") as tmp:
+        ff.save_slabs(tmp, rec.next_slabs, **arrays,
+                      checkpoint_iteration=np.array(rec.iteration + 1),
+                      checkpoint_key=np.array(key),
+                      checkpoint_rows=np.array(json.dumps(rows, default=float)),
+                      checkpoint_elapsed=np.array(elapsed),
+                      checkpoint_t_eval=np.array(t_eval),
+                      checkpoint_invocation=np.array(invocation))
+
+
+def load_checkpoint(path, key):
+    """(slabs, first iteration, rows, arrays, elapsed, t_eval, invocation) of a checkpoint
+    made with ``key``; None if there is none, or it was made with other settings (then
+    it is removed: those passes are not this run's)."""
+    path = Path(path)
+    if not path.exists():
+        return None
+    slabs, d = ff.load_slabs(path)
+    if str(d.pop("checkpoint_key")) != key:
+        logger.warning("%s was made with other settings: starting from pass 0", path)
+        path.unlink()
+        return None
+    first = int(d.pop("checkpoint_iteration"))
+    rows = json.loads(str(d.pop("checkpoint_rows")))
+    elapsed, t_eval = float(d.pop("checkpoint_elapsed")), float(d.pop("checkpoint_t_eval"))
+    invocation = int(d.pop("checkpoint_invocation")) + 1
+    logger.info("continuing from %s: pass %d on %d slabs (passes 0-%d recorded, %.1f s)",
+                path, first, len(slabs), first - 1, elapsed)
+    return slabs, first, rows, d, elapsed, t_eval, invocation
+
+
 def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
          max_iterations, figure_iterations, output_times, tol, quadrature, ref, table, npz,
-         log=None, threads=None, operator="dense", ref_operator=None):
+         log=None, threads=None, operator="dense", ref_operator=None, checkpoint=None):
     """problem: the run's name; example, data: fracfem.example(example, **data); ref: the
     reference run the errors are measured against; operator: each slab's stiffness
     ('dense', 'compressed', 'auto'); ref_operator: the reference's operator, saved by
-    para_reference_operator (None: assembled here)."""
+    para_reference_operator (None: assembled here); checkpoint: the file each pass that
+    does not end the run is saved to, and continued from when the job starts again
+    (None: none)."""
     start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
     obstacle = example == "ex4"
+    key = checkpoint_key(
+        problem=problem, example=example, data=data, T=T, theta=theta,
+        start_level=start_level, c_tau=c_tau, figure_iterations=sorted(figure_iterations),
+        output_times=list(output_times), tol=tol, quadrature=quadrature, operator=operator,
+        ref=os.path.abspath(ref), ref_bytes=os.path.getsize(ref))
+    state = None if checkpoint is None else load_checkpoint(checkpoint, key)
+    slabs, first, rows, arrays, elapsed, t_done_eval, invocation = (
+        state or (None, 0, [], {}, 0.0, 0.0, 0))
     t0 = time.perf_counter()
     reference, s = stored_reference(ref, quad, ref_operator)
     t_ref = time.perf_counter() - t0
-    rows, arrays, t_start = [], {}, time.perf_counter()
+    t_start = time.perf_counter() - elapsed     # all invocations' passes count
     keep = {int(k) for k in figure_iterations}
-    t_eval = [0.0]          # time spent measuring errors, not part of the method's cost
+    t_eval = [t_done_eval]  # time spent measuring errors, not part of the method's cost
 
     def record(rec):
         t0 = time.perf_counter()
@@ -50,7 +110,9 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
             **{f"t_{k}": v for k, v in rec.timings.items()},
             # all passes so far, without the error measurement (as for the other families)
             "t_wall": time.perf_counter() - t_start - t_eval[0],
-            "t_error_measurement": t_eval[0], "peak_mem_mb": peak_memory_mb()})
+            "t_error_measurement": t_eval[0], "peak_mem_mb": peak_memory_mb(),
+            # a run continued from a checkpoint: which start computed the pass, at which commit
+            "invocation": invocation, "pass_commit": provenance()["git_commit"]})
         logger.info("iteration %d: %d space-time DOFs, %d slabs, eta %.4e, error %.4e "
                     "(measured in %.1f s)", rec.iteration, rec.dofs, len(rec.slabs), rec.eta,
                     err, time.perf_counter() - t0)
@@ -65,13 +127,19 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
                                f"time_it{rec.iteration}_{j}": t_out})
         return rec.dofs >= max_spacetime_dofs
 
-    recs = ff.algorithm_c(
-        lambda coarse: ex.problem(coarse, quad, operator=operator),
-        ff.disk_uniform(start_level),
-        ex.initial_value, T=T, theta=theta, iterations=max_iterations, c_tau=c_tau,
-        marking="maximum", solver="pdas", output_times=output_times, callback=record,
-        keep_steps=True, solver_options={"tol": tol})
-    last = recs[-1]
+    last = None
+    for rec in ff.algorithm_c_steps(
+            lambda coarse: ex.problem(coarse, quad, operator=operator),
+            ff.disk_uniform(start_level),
+            ex.initial_value, T=T, theta=theta, iterations=max_iterations, c_tau=c_tau,
+            marking="maximum", solver="pdas", output_times=output_times, callback=record,
+            keep_steps=True, solver_options={"tol": tol}, slabs=slabs,
+            first_iteration=first):
+        last = rec
+        if checkpoint is not None and rec.next_slabs is not None:
+            save_checkpoint(checkpoint, rec, key, rows, arrays,
+                            time.perf_counter() - t_start, t_eval[0], invocation)
+            logger.info("pass %d saved to %s", rec.iteration, checkpoint)
     for j, (t_out, snap) in enumerate(sorted(last.outputs.items())):
         # the last pass's state at each output time (Figure 14): u_hτ on that slab's T_h,
         # λ_H on its T_H (none at t = 0)
@@ -82,10 +150,11 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
             arrays[f"lam_last_{j}"] = snap["lam"]
     arrays["last_iteration"] = last.iteration
     fin = last.final
+    done = set(range(last.iteration + 1))
     arrays.update(p=fin["mesh"].p, t=fin["mesh"].t, pc=fin["coarse"].p, tc=fin["coarse"].t,
                   u=fin["u"], lam=fin["lam"], s=s, T=T,
-                  iterations=np.array([r.iteration for r in recs]),
-                  figure_iterations=np.array(sorted(keep & {r.iteration for r in recs})))
+                  iterations=np.array(sorted(done)),
+                  figure_iterations=np.array(sorted(keep & done)))
     save_arrays(npz, **arrays)
     df = pd.DataFrame(rows)
     df["t_reference_assembly"] = t_ref
@@ -93,6 +162,8 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         quadrature=quad, T=T, theta=theta, marking="maximum", c_tau=c_tau,
         start_level=start_level, solver="pdas", tol=tol, operator=operator))
     write_table(with_provenance(df), table)
+    if checkpoint is not None and Path(checkpoint).exists():
+        Path(checkpoint).unlink()          # the run is complete: nothing to continue
 
 
 if __name__ == "__main__":
@@ -104,4 +175,4 @@ if __name__ == "__main__":
          snakemake.params.tol, snakemake.params.quadrature, snakemake.input.ref,  # noqa: F821
          snakemake.output.table, snakemake.output.npz, snakemake.log[0],  # noqa: F821
          snakemake.threads, snakemake.params.operator,  # noqa: F821
-         snakemake.input.operator)  # noqa: F821
+         snakemake.input.operator, snakemake.params.checkpoint)  # noqa: F821
