@@ -99,8 +99,8 @@ def test_figure14_says_a_decayed_solution_is_zero(tmp_path, monkeypatch, capture
 
 
 def test_figure8_draws_the_slip_boundaries(tmp_path, monkeypatch, captured):
-    """The boundaries of the slip sets are drawn as mesh edges, one line collection per
-    panel, and the legend names them."""
+    """The edges of the two slip sets are drawn as mesh edges, solid around λ_H = F and
+    dashed around λ_H = −F, in both panels, and the legend names them."""
     fig08 = script("fig08")
     figures, keep = captured
     monkeypatch.setattr(fig08, "save", keep)
@@ -109,9 +109,12 @@ def test_figure8_draws_the_slip_boundaries(tmp_path, monkeypatch, captured):
     fig08.main(npz, "ex3-signchange", 0.5, None, None)
     fig = figures[0]
     lines = [c for ax in fig.axes for c in ax.collections
-             if c.get_label().startswith("boundaries between")]
-    assert len(lines) == 2 and len(lines[0].get_segments()) > 0
-    assert fig.legends and "boundaries" in fig.legends[0].get_texts()[0].get_text()
+             if c.get_label().startswith("edge of the slip set")]
+    assert len(lines) == 4 and len(lines[0].get_segments()) > 0
+    assert [c.get_linestyle()[0][1] is None for c in lines] == [True, False] * 2
+    texts = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert texts == [r"edge of the slip set $\lambda_H = F$",
+                     r"edge of the slip set $\lambda_H = -F$"]
 
 
 def test_reference_energy_is_the_limit_of_the_large_series():

@@ -118,3 +118,27 @@ def test_plain_log_ticks_label_a_short_range_without_overlap():
     boxes = [lab.get_window_extent(renderer) for lab in labels]
     assert not any(_overlap(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
     plt.close(fig)
+
+
+@pytest.mark.parametrize("height", [2.2, 3.0, 5.0])
+def test_error_legend_lies_below_the_axis_label_and_names_open_markers(height):
+    """legend_below keeps the legend clear of the x label whatever the axes' height, and
+    adds one entry for the hollow markers of runs left out of a fit only when there are
+    such runs (rate_series draws them)."""
+    from fracfem_workflow.plotstyle import SPACETIME_DOFS, legend_below, rate_series
+    for reference_error, open_entry in ((0.0, False), (0.05, True)):
+        fig, ax = plt.subplots(figsize=(5, height))
+        rate_series(ax, [1e2, 1e3, 1e4, 1e5], [0.5, 0.3, 0.18, 0.12], "adaptive",
+                    reference_error=reference_error)
+        ax.set_xlabel(SPACETIME_DOFS)
+        legend_below(ax)
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        legend = ax.get_legend()
+        texts = [t.get_text() for t in legend.get_texts()]
+        assert any(t.startswith("open markers") for t in texts) == open_entry
+        label_box = ax.xaxis.label.get_window_extent(renderer)
+        ticks_box = max(t.get_window_extent(renderer).y0 for t in ax.get_xticklabels()
+                        if t.get_text())
+        assert legend.get_window_extent(renderer).y1 < label_box.y0 < ticks_box
+        plt.close(fig)

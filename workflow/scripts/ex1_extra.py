@@ -4,7 +4,7 @@ import pandas as pd
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, FAMILY_LABELS, MARKERS, WALL_TIME,
-                                        plain_log_ticks, plt, save)
+                                        legend_below, plain_log_ticks, plt, save)
 from fracfem_workflow.report import fit_rate, local_slopes
 
 
@@ -30,7 +30,7 @@ def main(table, time_png, orders_png, errors_md):
     ax.set_ylabel(ERROR_LABELS["elliptic"])
     ax.set_title("Example 1: error against run time")
     plain_log_ticks(ax.xaxis)
-    ax.legend()
+    legend_below(ax, ncols=2)      # inside, it covers the curves
     save(fig, time_png)
 
     fig, ax = plt.subplots(figsize=(5.5, 4))
@@ -41,7 +41,7 @@ def main(table, time_png, orders_png, errors_md):
     ax.set_xlabel(DOFS)
     ax.set_ylabel(ERROR_LABELS["elliptic"])
     ax.set_title("Example 1 for several $s$ (fitted rates)")
-    ax.legend()
+    legend_below(ax, ncols=2)      # inside, it covers the curves
     save(fig, orders_png)
 
 

@@ -25,7 +25,8 @@ def main(npz, png, pdf):
         ax.tripcolor(d["pc"][0], d["pc"][1], d["tc"][:, contact].T,
                      facecolors=np.ones(contact.sum()), cmap="Reds", vmin=0, vmax=2,
                      alpha=0.35, edgecolors="none", rasterized=True)
-        ax.set_title(f"{ordinal(k + 1)} mesh: {tc.shape[1]:,} elements of $T_H$\n"
+        last = " (the last)" if k == steps[-1] else ""     # the series' last mesh is kept
+        ax.set_title(f"{ordinal(k + 1)} mesh{last}: {tc.shape[1]:,} elements of $T_H$\n"
                      f"{int(d[f'dofs{k}']):,} DOFs of $T_h$", fontsize=9)
         ax.set_aspect("equal")
         ax.set_axis_off()

@@ -23,8 +23,8 @@ def main(npz, problem, F, png, pdf):
     multiplier_panel(fig, ax2, d, "coolwarm", vmin=-F, vmax=F)
     ax2.set_title(rf"$\lambda_H$ ($F = {F:g}$; {d['tc'].shape[1]} elements of $T_H$)")
     for ax in (ax1, ax2):
-        slip_boundaries(ax, d["pc"], d["tc"], d["lam"], F)
-    fig.legend(handles=ax2.collections[-1:], loc="outside lower center", frameon=False)
+        handles = slip_boundaries(ax, d["pc"], d["tc"], d["lam"], F)
+    fig.legend(handles=handles, loc="outside lower center", ncols=2, frameon=False)
     save(fig, png, pdf)
 
 

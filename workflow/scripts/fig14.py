@@ -91,7 +91,7 @@ def main(npz, reference_npz, times_shown, F, tol, png, pdf, md):
         if lam is not None:
             tp = ax2.tripcolor(pc[0], pc[1], tc.T, facecolors=lam, cmap="coolwarm",
                                vmin=-F, vmax=F, edgecolors="none")
-            slip_boundaries(ax2, pc, tc, lam, F)
+            handles = slip_boundaries(ax2, pc, tc, lam, F)
             ax2.set_title(rf"$\lambda_H$, $t = {time:.2f}$"
                           + (": stick everywhere" if stick else ""))
             lam_axes.append(ax2)
@@ -101,8 +101,7 @@ def main(npz, reference_npz, times_shown, F, tol, png, pdf, md):
                      transform=ax2.transAxes, ha="center", va="center")
     if tp is not None:
         colorbar(fig, tp, lam_axes[-1], r"$\lambda_H$")
-        fig.legend(handles=lam_axes[-1].collections[-1:], loc="outside lower center",
-                   frameon=False)
+        fig.legend(handles=handles, loc="outside lower center", ncols=2, frameon=False)
     fig.suptitle(f"{problem_title('ex5')}, $F = {F:g}$: Algorithm C, pass {iteration} "
                  "(each time its slab's mesh)")
     save(fig, png, pdf)

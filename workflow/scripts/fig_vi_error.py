@@ -22,8 +22,8 @@ def panel(ax, df):
     if ref_err > 0:
         reference_error_lines(ax, ref_err, "measured uncertainty")
     ref = "exact" if ex == 3 and var == "printed" else "extrapolated (large adaptive run)"
-    ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$; "
-                 f"reference energy {ref}")
+    ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$\n"
+                 f"reference energy {ref}")        # two lines: no wider than the axes
     ax.set_xlabel(DOFS)
     legend_below(ax)
 

@@ -8,7 +8,6 @@ conditioning (of A and of D^(-1/2) A D^(-1/2)) or round-off (two solves).
 """
 import time
 
-import matplotlib.ticker as mticker
 import numpy as np
 import pandas as pd
 import scipy.linalg as sla
@@ -18,7 +17,7 @@ import fracfem as ff
 from fracfem.meshes import min_angle
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.plotstyle import plt, save
+from fracfem_workflow.plotstyle import ERROR_LABELS, plain_log_ticks, plt, save
 from fracfem_workflow.runs import start
 
 logger = script_logger("stability")
@@ -153,6 +152,11 @@ def reading(df) -> str:
     return "\n".join(lines)
 
 
+# the measures of the figure in symbols: the change of (f, u_h) when every quadrature order
+# is raised (QuadratureOptions.raised()), relative to the squared energy error
+QUAD_CHANGE = r"$|\Delta(f,u_h)| / \|u-u_h\|_a^2$, quadrature raised"
+ONE_PERCENT = r"1 % of $\|u-u_h\|_a^2$"
+
 def figure(df, png):
     """Top: extreme s and grading exponent; bottom: the anisotropic layers."""
     fig, axs = plt.subplot_mosaic([["s", "s", "s", "g", "g", "g"],
@@ -161,24 +165,25 @@ def figure(df, png):
     sw = df[df.case.str.startswith("s sweep")]
     ax = axs["s"]
     for colour, (lab, g) in zip(("C0", "C3"), sw.groupby("case")):
-        lab = lab.removeprefix("s sweep, ")
+        lab = "uniform mesh, level " + lab.removeprefix("s sweep, disk_uniform(").rstrip(")")
         ax.semilogy(g.s, g.quad_change_over_err2, "o-", color=colour,
-                    label=f"{lab}: |Δ(f,u_h)| under raised() / err²")
+                    label=f"{lab}: {QUAD_CHANGE}")
         ax.semilogy(g.s, g.cond / g.cond.max(), "s--", color=colour, mfc="none",
-                    label=f"{lab}: cond(A) / largest over s")
+                    label=f"{lab}: " + r"$\mathrm{cond}(A)$ / its largest over $s$")
     ax.set_xlabel("$s$")
-    ax.set_ylabel("relative quadrature change; normalised cond(A)")
+    ax.set_ylabel(r"quadrature change; normalised $\mathrm{cond}(A)$")
     ax.legend(fontsize=7)
     ax.set_title("(a) Example 1 at extreme $s$, uniform meshes")
     ax = axs["g"]
     sr = df[df.case.str.startswith("grading")]
-    ax.semilogy(sr.grading, sr.quad_change_over_err2, "o-", label="shape-regular disk_graded(0.3, μ)")
+    ax.semilogy(sr.grading, sr.quad_change_over_err2, "o-",
+                label=r"shape-regular graded mesh, $h = 0.3$")
     an = df[(df.family == "n-series") & (df.n == SERIES_N[-1])]
     ax.semilogy(an.grading, an.quad_change_over_err2, "s-",
-                label=f"anisotropic disk_graded_rings({SERIES_N[-1]}, μ)")
-    ax.axhline(0.01, color="k", lw=0.8, ls=":", label="1 % of err²")
+                label=f"anisotropic graded mesh, {SERIES_N[-1]} rings")
+    ax.axhline(0.01, color="k", lw=0.8, ls=":", label=ONE_PERCENT)
     ax.set_xlabel("grading exponent $\\mu$")
-    ax.set_ylabel("|Δ(f,u_h)| under raised() / err²")
+    ax.set_ylabel(QUAD_CHANGE)
     ax.legend(fontsize=8)
     ax.set_title("(b) strong grading, $s = 0.5$")
     colours = dict(zip(GRADINGS, ("C0", "C1", "C2")))
@@ -190,23 +195,24 @@ def figure(df, png):
         g = g.sort_values("thinnest_layer", ascending=False)
         style = dict(color=colours[mu], marker="o" if fam == "n-series" else "^",
                      ls="-" if fam == "n-series" else "--")
-        name = (f"μ = {mu:g}: n = {', '.join(str(int(k)) for k in sorted(g.n))}" if fam == "n-series"
-                else f"μ = {mu:g}: n = {LAYER_N}, outer layer δ")
+        name = (f"$\\mu = {mu:g}$: $n$ = {', '.join(str(int(k)) for k in sorted(g.n))} rings"
+                if fam == "n-series" else
+                f"$\\mu = {mu:g}$: $n = {LAYER_N}$ rings, outer layer $\\delta$")
         axs["err"].loglog(g.thinnest_layer, g.error, label=name, **style)
         axs["quad"].loglog(g.thinnest_layer, g.quad_change_over_err2, label=name, **style)
         axs["cond"].semilogx(g.thinnest_layer, g.cond, **style)
         axs["cond"].semilogx(g.thinnest_layer, g.cond_scaled, color=colours[mu],
                              marker=style["marker"], ls=":", mfc="none")
-    axs["quad"].axhline(0.01, color="k", lw=0.8, ls=":", label="1 % of err²")
-    axs["cond"].plot([], [], "k-", marker="o", label="cond(A), free nodes")
+    axs["quad"].axhline(0.01, color="k", lw=0.8, ls=":", label=ONE_PERCENT)
+    axs["cond"].plot([], [], "k-", marker="o", label=r"$\mathrm{cond}(A)$, free nodes")
     axs["cond"].plot([], [], "k:", marker="o", mfc="none", label=r"cond($D^{-1/2} A D^{-1/2}$)")
-    axs["err"].yaxis.set_minor_formatter(mticker.FormatStrFormatter("%.2g"))
+    plain_log_ticks(axs["err"].yaxis)     # 10^k and decimal labels side by side overlap
     for key, ylabel, title in (
-            ("err", "energy error ‖u − u_h‖", "(c) energy error, $s = 0.5$"),
-            ("quad", "|Δ(f,u_h)| under raised() / err²", "(d) quadrature change, $s = 0.5$"),
+            ("err", ERROR_LABELS["elliptic"], "(c) energy error, $s = 0.5$"),
+            ("quad", QUAD_CHANGE, "(d) quadrature change, $s = 0.5$"),
             ("cond", "condition number (colours as in (c))", "(e) conditioning, $s = 0.5$")):
         ax = axs[key]
-        ax.set_xlabel("thinnest layer 1 − max |x| (interior nodes)")
+        ax.set_xlabel(r"thinnest layer $1 - \max|x|$ (interior nodes)")
         ax.set_ylabel(ylabel)
         ax.set_title(title)
         ax.invert_xaxis()

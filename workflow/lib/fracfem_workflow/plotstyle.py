@@ -42,15 +42,29 @@ def rate_series(ax, x, y, family, reference_error=0.0, paper=None, exclude=None)
     label += f" (paper {paper:.3f})" if paper is not None else ""
     (line,) = ax.loglog(x, y, marker=MARKERS[family], label=label)
     if not keep.all():
-        ax.loglog(x[~keep], y[~keep], ls="none", marker=MARKERS[family], mfc="white",
-                  color=line.get_color(), zorder=line.get_zorder() + 1)
+        (hollow,) = ax.loglog(x[~keep], y[~keep], ls="none", marker=MARKERS[family],
+                              mfc="white", color=line.get_color(),
+                              zorder=line.get_zorder() + 1)
+        hollow.set_gid(LEFT_OUT)
     return rate
 
 
-def legend_below(ax):
+LEFT_OUT = "left out of the fit"      # gid of the hollow markers of rate_series
+
+
+def legend_below(ax, ncols=1):
     """The legend of an error plot under its axes (inside them it covers the finest runs),
-    one entry per line: the same place and size in every error figure."""
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize=8, frameon=False)
+    one entry per line (in ``ncols`` columns), and one for the hollow markers of runs left out of a fit if
+    there are any: the same place, size and distance from the axis label in every
+    error figure (the pad is in font sizes, so it does not depend on the axes' height)."""
+    from matplotlib.lines import Line2D
+
+    handles, labels = ax.get_legend_handles_labels()
+    if any(ln.get_gid() == LEFT_OUT for ln in ax.lines):
+        handles.append(Line2D([], [], ls="none", marker="o", mfc="white", color="grey"))
+        labels.append("open markers: runs " + LEFT_OUT)
+    ax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0),
+              borderaxespad=5.0, fontsize=8, frameon=False, ncols=ncols)
 
 
 def reference_error_lines(ax, reference_error, how):
@@ -68,8 +82,8 @@ SPACETIME_DOFS = "space-time degrees of freedom"
 WALL_TIME = "wall time [s]"
 ERROR_LABELS = {
     "elliptic": r"$\|u-u_h\|_a$",                        # Example 1, exact solution
-    "vi": r"$\sqrt{2\,|E(u_h)-E_{ref}|}$",                # Examples 2, 3: energy distance
-    "parabolic": r"$\|u_{ref}-u_{h\tau}\|_{L^2(0,T;H^s)}$",  # Examples 4, 5
+    "vi": r"$\sqrt{2\,|E(u_h)-E_{\mathrm{ref}}|}$",                # Examples 2, 3: energy distance
+    "parabolic": r"$\|u_{\mathrm{ref}}-u_{h\tau}\|_{L^2(0,T;H^s)}$",  # Examples 4, 5
 }
 
 # The problems of the workflow (config keys) in the paper's words.
@@ -126,8 +140,11 @@ def colorbar(fig, mappable, ax, label):
 
 
 def surface(ax, p, t, values, cmap="viridis", **kw):
-    """A P1 function on the mesh (p, t) as a 3D surface, axes labelled x₁, x₂."""
-    ax.plot_trisurf(p[0], p[1], values, triangles=t.T, cmap=cmap, **{"linewidth": 0, **kw})
+    """A P1 function on the mesh (p, t) as a 3D surface, axes labelled x₁, x₂.  Drawn
+    without antialiasing: with it, the seams between thousands of small facets show as
+    white lines and a moiré through which the far side shows."""
+    ax.plot_trisurf(p[0], p[1], values, triangles=t.T, cmap=cmap,
+                    **{"linewidth": 0, "antialiased": False, **kw})
     ax.set_xlabel("$x_1$")
     ax.set_ylabel("$x_2$")
     ax.set_xticks([-1, 0, 1])         # Ω = B₁(0); more ticks crowd the slanted axes
@@ -195,16 +212,20 @@ def interface_segments(p, t, label):
 
 
 def slip_boundaries(ax, pc, tc, lam, F, **kw):
-    """Draw the edges of T_H = (pc, tc) between elements of different friction state
-    (slip λ_H = F, stick |λ_H| < F, slip λ_H = −F): where λ_H jumps."""
+    """Draw the edges of T_H = (pc, tc) around the two slip sets, where λ_H jumps: solid
+    around λ_H = F, dashed around λ_H = −F (the stick set |λ_H| < F lies between; where
+    it is thin the two lines meet, the dashes tell them apart).  Returns the two line
+    collections (legend handles)."""
     from matplotlib.collections import LineCollection
 
-    seg = interface_segments(pc, tc, friction_states(lam, F))
-    kw = {"colors": "k", "linewidths": 1.0, **kw}
-    ax.add_collection(LineCollection(
-        seg, label=r"boundaries between $\lambda_H = F$, $|\lambda_H| < F$, $\lambda_H = -F$",
-        **kw))
-    return len(seg)
+    state = friction_states(lam, F)
+    out = []
+    for sign, style, name in ((1, "solid", "F"), (-1, "dashed", "-F")):
+        seg = interface_segments(pc, tc, (state == sign).astype(int))
+        out.append(ax.add_collection(LineCollection(
+            seg, label=rf"edge of the slip set $\lambda_H = {name}$",
+            **{"colors": "k", "linewidths": 1.0, "linestyles": style, **kw})))
+    return out
 
 
 def plain_log_ticks(axis):
@@ -227,14 +248,14 @@ def time_panel(ax, d, name, xlabel=WALL_TIME):
     times = {}
     for fam, g in d.groupby("family"):
         g = g.sort_values("t_wall")
-        ax.loglog(g.t_wall, g.error, marker=MARKERS[fam], label=fam)
+        ax.loglog(g.t_wall, g.error, marker=MARKERS[fam], label=FAMILY_LABELS[fam])
         times[fam] = time_to_reach(g.t_wall.values, g.error.values, level)
     ax.axhline(level, color="grey", lw=0.6, ls="--",
                label="smallest error every family reaches")
     plain_log_ticks(ax.xaxis)
     ax.set_title(name)
     ax.set_xlabel(xlabel)
-    ax.legend()
+    legend_below(ax)                  # inside, it covers the curves
     best = min(times, key=times.get)
     return {"common error": level, **{f"t_{k} [s]": v for k, v in sorted(times.items())},
             "fastest": best, "speed-up vs slowest": max(times.values()) / times[best]}
