@@ -417,3 +417,17 @@ def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch):
     args["theta"] = 0.6
     again, _ = outputs(tmp_path / "other2", checkpoint=ckpt)
     assert again.invocation.tolist() == [0, 0, 0] and not ckpt.exists()
+    # nor one holding a pass at which a run with a lower limit would have stopped
+    args["theta"] = 0.5
+    monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass_1)
+    with pytest.raises(_TimeLimit):
+        outputs(tmp_path / "limit", checkpoint=ckpt)
+    monkeypatch.setattr(ff, "algorithm_c_steps", real)
+    args["max_spacetime_dofs"] = int(whole.spacetime_dofs.iloc[1])
+    short, _ = outputs(tmp_path / "limit2", checkpoint=ckpt)
+    assert short.tag.tolist() == ["it0", "it1"] and short.invocation.tolist() == [0, 0]
+    assert not ckpt.exists()
+    # integers stay integers in the continued table (the saved rows are JSON)
+    ints = [c for c in whole if whole[c].dtype.kind == "i"]
+    assert {"dofs", "spacetime_dofs", "slabs", "steps"} <= set(ints)
+    assert [c for c in ints if cont[c].dtype.kind != "i"] == []

@@ -5,8 +5,8 @@ file (its space-time mesh, the table rows and arrays so far); started again with
 same settings, the job continues from there, so a job ended by a time limit or a lost
 machine loses at most the pass it was in.  The checkpoint goes when the outputs are
 written."""
+import hashlib
 import json
-import os
 import time
 from pathlib import Path
 
@@ -29,32 +29,52 @@ def checkpoint_key(**settings) -> str:
     return json.dumps(settings, sort_keys=True, default=str)
 
 
+def _plain(value):
+    """A numpy scalar as the Python number it holds (an integer stays one)."""
+    return value.item() if hasattr(value, "item") else float(value)
+
+
+def file_digest(path) -> str:
+    """SHA-256 of a file: a reference computed again is another reference."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 22), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 def save_checkpoint(path, rec, key, rows, arrays, elapsed, t_eval, invocation):
     """The state after pass rec.iteration: the next pass's mesh and what was recorded."""
     with atomic_path(path, suffix=".npz") as tmp:
         ff.save_slabs(tmp, rec.next_slabs, **arrays,
                       checkpoint_iteration=np.array(rec.iteration + 1),
                       checkpoint_key=np.array(key),
-                      checkpoint_rows=np.array(json.dumps(rows, default=float)),
+                      checkpoint_rows=np.array(json.dumps(rows, default=_plain)),
                       checkpoint_elapsed=np.array(elapsed),
                       checkpoint_t_eval=np.array(t_eval),
                       checkpoint_invocation=np.array(invocation))
 
 
-def load_checkpoint(path, key):
+def load_checkpoint(path, key, max_spacetime_dofs, max_iterations):
     """(slabs, first iteration, rows, arrays, elapsed, t_eval, invocation) of a checkpoint
-    made with ``key``; None if there is none, or it was made with other settings (then
-    it is removed: those passes are not this run's)."""
+    made with ``key``; None if there is none, or it was made with other settings or
+    holds a pass at which this run would have stopped (then it is removed: those passes
+    are not this run's)."""
     path = Path(path)
     if not path.exists():
         return None
     slabs, d = ff.load_slabs(path)
+    first = int(d.pop("checkpoint_iteration"))
+    rows = json.loads(str(d.pop("checkpoint_rows")))
     if str(d.pop("checkpoint_key")) != key:
         logger.warning("%s was made with other settings: starting from pass 0", path)
         path.unlink()
         return None
-    first = int(d.pop("checkpoint_iteration"))
-    rows = json.loads(str(d.pop("checkpoint_rows")))
+    if first >= max_iterations or max(r["spacetime_dofs"] for r in rows) >= max_spacetime_dofs:
+        logger.warning("%s goes beyond max_iterations=%d or max_spacetime_dofs=%d: "
+                       "starting from pass 0", path, max_iterations, max_spacetime_dofs)
+        path.unlink()
+        return None
     elapsed, t_eval = float(d.pop("checkpoint_elapsed")), float(d.pop("checkpoint_t_eval"))
     invocation = int(d.pop("checkpoint_invocation")) + 1
     logger.info("continuing from %s: pass %d on %d slabs (passes 0-%d recorded, %.1f s)",
@@ -79,8 +99,9 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         problem=problem, example=example, data=data, T=T, theta=theta,
         start_level=start_level, c_tau=c_tau, figure_iterations=sorted(figure_iterations),
         output_times=list(output_times), tol=tol, quadrature=quadrature, operator=operator,
-        ref=os.path.abspath(ref), ref_bytes=os.path.getsize(ref))
-    state = None if checkpoint is None else load_checkpoint(checkpoint, key)
+        ref=file_digest(ref))
+    state = (None if checkpoint is None else
+             load_checkpoint(checkpoint, key, max_spacetime_dofs, max_iterations))
     slabs, first, rows, arrays, elapsed, t_done_eval, invocation = (
         state or (None, 0, [], {}, 0.0, 0.0, 0))
     t0 = time.perf_counter()
