@@ -74,8 +74,8 @@ __all__ = [
     "time_grid", "time_step", "Stepper", "TimeStep", "time_steps", "solve_parabolic",
     "initial_projection", "heat_solution", "heat_source", "heat_error",
     # space-time indicators (Theorem 6.18, Lemma 6.20) and Algorithm C
-    "space_time_indicators", "algorithm_c", "algorithm_c_steps", "solve_slabs", "save_slabs", "load_slabs", "Slab",
-    "IterationRecord",
+    "space_time_indicators", "algorithm_c", "algorithm_c_steps", "solve_slabs", "Slab",
+    "IterationRecord", "save_slabs", "load_slabs",
     # the paper's examples, built from their parameters, and series meshes
     "EXAMPLES", "Example1", "Example2", "Example3", "Example4", "Example5",
     "ThinObstacleDemo", "ThinFrictionDemo", "example", "series_tag", "parse_series_tag",

@@ -566,7 +566,6 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
             rec.stop = "callback"
         if rec.stop is not None:
             rec.next_slabs = None
-        if rec.stop is not None:
             logger.info("Algorithm C stops after iteration %d: %s", it, rec.stop)
         yield rec
         if rec.stop is not None:
@@ -658,10 +657,10 @@ def algorithm_c(make_problem, coarse0, u0, *, T: float, theta: float, iterations
     record), ``bisected`` (slab indices), ``timings`` ('assemble', 'solve',
     'estimate', 'mark', 'refine', 'total' seconds), ``stop`` ('iterations',
     'tol', 'nothing marked', 'callback' or None), ``next_slabs`` (the refined
-    space-time mesh the next pass solves on; None when this pass is the last).  A snapshot is a dict 't'
-    (requested), 't_step' (t_k of the step whose interval (t_{k−1}, t_k] holds t;
-    t_0 for t = 0), 'k', 'slab', 'u' (all fine nodes), 'lam' (None at t = 0),
-    'mesh' (fine), 'coarse'.
+    space-time mesh the next pass solves on; None when this pass is the last).
+    A snapshot is a dict 't' (requested), 't_step' (t_k of the step whose
+    interval (t_{k−1}, t_k] holds t; t_0 for t = 0), 'k', 'slab', 'u' (all fine
+    nodes), 'lam' (None at t = 0), 'mesh' (fine), 'coarse'.
     """
     return list(algorithm_c_steps(make_problem, coarse0, u0, T=T, theta=theta,
                                   iterations=iterations, **kwargs))

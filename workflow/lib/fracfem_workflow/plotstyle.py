@@ -54,9 +54,9 @@ LEFT_OUT = "left out of the fit"      # gid of the hollow markers of rate_series
 
 def legend_below(ax, ncols=1):
     """The legend of an error plot under its axes (inside them it covers the finest runs),
-    one entry per line (in ``ncols`` columns), and one for the hollow markers of runs left out of a fit if
-    there are any: the same place, size and distance from the axis label in every
-    error figure (the pad is in font sizes, so it does not depend on the axes' height)."""
+    one entry per line (in ``ncols`` columns) and one for the hollow markers of runs left
+    out of a fit if there are any: the same place, size and distance from the axis label
+    in every error figure (the pad is in font sizes, not a fraction of the axes' height)."""
     from matplotlib.lines import Line2D
 
     handles, labels = ax.get_legend_handles_labels()
