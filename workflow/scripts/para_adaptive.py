@@ -110,6 +110,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     t_start = time.perf_counter() - elapsed     # all invocations' passes count
     keep = {int(k) for k in figure_iterations}
     t_eval = [t_done_eval]  # time spent measuring errors, not part of the method's cost
+    commit = provenance()["git_commit"]    # the code this start runs, for all its passes
 
     def record(rec):
         t0 = time.perf_counter()
@@ -133,7 +134,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
             "t_wall": time.perf_counter() - t_start - t_eval[0],
             "t_error_measurement": t_eval[0], "peak_mem_mb": peak_memory_mb(),
             # a run continued from a checkpoint: which start computed the pass, at which commit
-            "invocation": invocation, "pass_commit": provenance()["git_commit"]})
+            "invocation": invocation, "pass_commit": commit})
         logger.info("iteration %d: %d space-time DOFs, %d slabs, eta %.4e, error %.4e "
                     "(measured in %.1f s)", rec.iteration, rec.dofs, len(rec.slabs), rec.eta,
                     err, time.perf_counter() - t0)
@@ -183,8 +184,8 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         quadrature=quad, T=T, theta=theta, marking="maximum", c_tau=c_tau,
         start_level=start_level, solver="pdas", tol=tol, operator=operator))
     write_table(with_provenance(df), table)
-    if checkpoint is not None and Path(checkpoint).exists():
-        Path(checkpoint).unlink()          # the run is complete: nothing to continue
+    if checkpoint is not None:
+        Path(checkpoint).unlink(missing_ok=True)   # the run is complete: nothing to continue
 
 
 if __name__ == "__main__":
