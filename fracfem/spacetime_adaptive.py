@@ -127,16 +127,17 @@ class _Settings:
 # ------------------------------------------------------------------ SOLVE
 
 
-def _stepper(slab, cache: OrderedDict, make_problem, cache_bytes: float) -> Stepper:
+def _stepper(slab, cache: OrderedDict, make_problem, cache_bytes: float, order: list,
+             position: int) -> Stepper:
     """The :class:`Stepper` of the slab's coarse mesh, assembled once per mesh
     while it stays in the cache.
 
-    ``cache``: id(coarse) → (coarse, Stepper), least recently used first; slabs
-    sharing a mesh share one entry.  After an insertion, and again after each
-    slab's steps (:func:`_sweep`: they add factorisations or preconditioners
-    for new τ), the least recently used entries other than the newest are
-    dropped until the steppers hold at most ``cache_bytes``
-    (:attr:`Stepper.nbytes`).
+    ``cache``: id(coarse) → (coarse, Stepper); slabs sharing a mesh share one
+    entry.  After an insertion, and again after each slab's steps (:func:`_sweep`:
+    they add factorisations or preconditioners for new τ), entries other than the
+    one in use are dropped until the steppers hold at most ``cache_bytes``
+    (:attr:`Stepper.nbytes`), in the order of :func:`_trim` (``order``: the mesh
+    keys of the sweep's slabs, ``position``: the slab being solved).
     """
     key = id(slab.coarse)
     if key in cache:
@@ -147,27 +148,57 @@ def _stepper(slab, cache: OrderedDict, make_problem, cache_bytes: float) -> Step
         raise TypeError("make_problem must return a vi.MixedProblem of kind "
                         "'obstacle' or 'friction'")
     cache[key] = (slab.coarse, Stepper(prob))
-    _trim(cache, cache_bytes)
+    _trim(cache, cache_bytes, order, position)
     return cache[key][1]
 
 
 def _sweep(run, slabs, cache: OrderedDict, make_problem, cache_bytes) -> "_SolveEstimate":
     """SOLVE and ESTIMATE on the slabs in order (steppers from ``cache``)."""
     sweep = _SolveEstimate(run)
+    order = [id(sl.coarse) for sl in slabs]
     for j, slab in enumerate(slabs):
         t0 = time.perf_counter()
-        st = _stepper(slab, cache, make_problem, cache_bytes)
+        st = _stepper(slab, cache, make_problem, cache_bytes, order, j)
         sweep.timings["assemble"] += time.perf_counter() - t0
         sweep.slab(j, slab, st)
-        _trim(cache, cache_bytes)       # the slab's steps may have grown its stepper
+        _trim(cache, cache_bytes, order, j)   # the slab's steps may have grown its stepper
     return sweep
 
 
-def _trim(cache: OrderedDict, cache_bytes: float) -> None:
-    """Drop least recently used steppers (never the last) beyond ``cache_bytes``."""
+def _next_use(order, position: int) -> dict:
+    """{mesh key: how many slabs ahead it is needed next}: later in this sweep
+    (1 … n − position − 1), else in the next sweep at its first slab, if the
+    mesh is kept unrefined (n − position + first index)."""
+    n = len(order)
+    ahead = {}
+    for i, key in enumerate(order):
+        ahead.setdefault(key, n - position + i)      # the next sweep
+    for i in range(n - 1, position, -1):              # this sweep, nearest last
+        ahead[order[i]] = i - position
+    return ahead
+
+
+def _trim(cache: OrderedDict, cache_bytes: float, order: list, position: int) -> None:
+    """Drop steppers beyond ``cache_bytes``, never the newest (the one in use).
+
+    ``order``: the mesh keys of the sweep's slabs, solved in that order;
+    ``position``: the slab in use.  The stepper needed furthest ahead goes first
+    (:func:`_next_use`; meshes of no slab before any), which is optimal for a
+    known sequence of requests.  The sweeps visit the slabs in time order, so
+    when the steppers exceed the budget, dropping the least recently used would
+    drop each one just before it is needed again and assemble every mesh again
+    on every pass; this keeps as many of the next pass's first meshes as fit.
+    """
     held = sum(st.nbytes for _, st in cache.values())
-    while len(cache) > 1 and held > cache_bytes:
-        _, (_, st) = cache.popitem(last=False)
+    if held <= cache_bytes or len(cache) <= 1:
+        return
+    newest = next(reversed(cache))
+    ahead = _next_use(order, position)
+    victims = sorted((k for k in cache if k != newest), key=lambda k: -ahead.get(k, np.inf))
+    for k in victims:
+        if held <= cache_bytes:
+            break
+        _, st = cache.pop(k)
         held -= st.nbytes
 
 
@@ -610,9 +641,10 @@ def algorithm_c(make_problem, coarse0, u0, *, T: float, theta: float, iterations
       is at least ``bisect_fraction`` (default ½) of its total indicator.  Slabs
       without marked prisms keep their mesh and length.
     * Assembled problems are cached by mesh identity (slabs sharing a mesh and
-      unchanged slabs of the previous iteration assemble once), least recently used
-      dropped beyond ``cache_bytes`` (default: a quarter of the memory available
-      at the start, at least 1 GiB; a dropped mesh is assembled again when met).
+      unchanged slabs of the previous iteration assemble once); beyond
+      ``cache_bytes`` (default: a quarter of the memory available at the start,
+      at least 1 GiB) the problem needed furthest ahead in the sweeps is dropped
+      first, and a dropped mesh is assembled again when met.
 
     Parameters
     ----------

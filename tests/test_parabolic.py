@@ -841,10 +841,10 @@ def test_algorithm_c_cache_stays_within_budget_as_steppers_grow(monkeypatch):
     seen = []
     stepper = spacetime_adaptive._stepper
 
-    def watched(slab, cache, make_problem, cache_bytes):
+    def watched(slab, cache, make_problem, cache_bytes, *where):
         held = sum(st.nbytes for _, st in cache.values())
         seen.append((held, len(cache)))
-        return stepper(slab, cache, make_problem, cache_bytes)
+        return stepper(slab, cache, make_problem, cache_bytes, *where)
     monkeypatch.setattr(spacetime_adaptive, "_stepper", watched)
     # measured: pass 1 caches a 0.36 MB stepper and inserts one of 1.4 MB that its
     # steps grow to 4.3 MB; the two together exceed 3 MB at pass 2's first slab
@@ -862,3 +862,45 @@ def test_stepper_nbytes_counts_what_it_holds():
     assert before >= 8 * n * n               # the dense stiffness matrix
     st.operator(0.1)                          # + Cholesky factor and dense mass
     assert st.nbytes - before >= 2 * 8 * n * n
+
+
+def test_stepper_cache_keeps_what_the_next_sweep_needs_first():
+    """Sweeps visit the slabs in time order: with room for k ≥ 2 of n meshes,
+    the cache drops the one needed furthest ahead, so a repeated sweep
+    assembles n − k meshes again (the fewest possible: a sweep starts with at
+    most k of its n meshes at hand), where dropping the least recently used
+    would assemble all n every time."""
+    from collections import OrderedDict
+
+    class Held:                        # stands for a Stepper: only its size matters
+        nbytes = 1
+
+    def sweeps(order, budget, passes=3):
+        cache, built = OrderedDict(), []
+        for _ in range(passes):
+            built.append(0)
+            for j, key in enumerate(order):
+                if key in cache:
+                    cache.move_to_end(key)
+                else:
+                    cache[key] = (None, Held())
+                    built[-1] += 1
+                    spacetime_adaptive._trim(cache, budget, order, j)
+                spacetime_adaptive._trim(cache, budget, order, j)
+                assert key in cache and len(cache) <= budget
+        return built
+
+    assert sweeps(list("abcde"), budget=3) == [5, 2, 2]
+    assert sweeps(list("abcde"), budget=4) == [5, 1, 1]
+    assert sweeps(list("abcde"), budget=5) == [5, 0, 0]
+    assert sweeps(list("abcde"), budget=1) == [5, 5, 5]
+    # slabs bisected in time share a mesh: a repeated key costs nothing
+    assert sweeps(list("aabbcdde"), budget=3) == [5, 2, 2]
+    # a mesh of no slab of the sweep (refined away) goes before any other
+    cache = OrderedDict((k, (None, Held())) for k in "xab")
+    spacetime_adaptive._trim(cache, 2, list("ab"), 1)
+    assert list(cache) == ["a", "b"]
+    # the one in use stays even alone over the budget
+    cache = OrderedDict(a=(None, Held()))
+    spacetime_adaptive._trim(cache, 0, ["a"], 0)
+    assert list(cache) == ["a"]
