@@ -46,6 +46,7 @@ localrules:
     fig14,
     parabolic_summary,
     rates,
+    rates_elliptic,
     results_page,
 
 

@@ -168,15 +168,17 @@ def test_other_data_recompute_the_parabolic_reference(tmp_path, change):
 
 
 def test_paper_scale_tier_has_its_own_root_and_the_paper_sizes():
-    """config/paper.yaml writes everything under results-paper/, runs Algorithm C and the
+    """config/paper.yaml computes everything under results-paper/ and writes its figures
+    and tables to paper-figures/paper-scale/, runs Algorithm C and the
     finer Example 4 reference (or reuses this tier's committed copy of it, never the
     default tier's), reuses the committed elliptic references, recomputes
     Example 5's under its own parabolic quadrature, and its rate
     table takes the default tier's committed rates.csv as input."""
     _, text = dry_run("--configfile", "config/paper.yaml", "--forceall")
     outputs = re.findall(r"^\s+output: (.*)$", text, re.M)
-    assert outputs and all(o.startswith("results-paper/") for line in outputs
-                           for o in line.split(", "))
+    assert outputs and all(o.startswith(("results-paper/", "paper-figures/paper-scale/"))
+                           for line in outputs for o in line.split(", "))
+    assert "paper-figures/paper-scale/fig13-ex4-error.png" in text
     for problem in ("ex4-u1", "ex4-u2"):
         copy = f"workflow/data/reference/paper-scale/{problem}-parabolic.npz"
         fresh = f"results-paper/para/{problem}/reference/h0.0125.npz"
@@ -199,6 +201,29 @@ def test_rate_table_reads_another_tier_only_where_it_exists(tmp_path):
                       "--", f"{tmp_path}/o/rates.csv")
     rates = text.split("rule rates:")[1].split("output:")[0]
     assert f"{tmp_path}/other.csv" in rates and "nothing.csv" not in rates
+
+
+def test_rate_table_reads_another_tiers_elliptic_table_until_its_full_one_exists(tmp_path):
+    """A tier whose parabolic series are unfinished has only rates-elliptic.csv (rule
+    rates_elliptic): the other tiers read it in place of its rates.csv, and its full
+    table once that exists."""
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "rates-elliptic.csv").write_text("example\n")
+    (tmp_path / "s.yaml").write_text(f"tiers:\n  other: {other}/rates.csv\n")
+    args = ("--configfile", str(tmp_path / "s.yaml"), "--config",
+            f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
+            "--", f"{tmp_path}/o/rates.csv")
+
+    def read():
+        _, text = dry_run(*args)
+        return text.split("rule rates:")[1].split("output:")[0]
+    assert f"{other}/rates-elliptic.csv" in read()
+    (other / "rates.csv").write_text("example\n")
+    assert f"{other}/rates.csv" in read() and "rates-elliptic" not in read()
+    # the elliptic table of this tier alone needs no parabolic run
+    _, text = dry_run(*args[:-1], f"{tmp_path}/o/rates-elliptic.csv")
+    assert "para_" not in text and "rule rates_elliptic" in text
 
 
 @pytest.mark.parametrize("choice, checked", [

@@ -76,11 +76,21 @@ if OUT == _default["output_root"] and _fingerprint(config) != _fingerprint(_defa
 TIER = config.get("tier", "default")
 
 
+def tier_table(p):
+    """A tier's rate table: its rates.csv, or while that tier's parabolic series are
+    unfinished, the rates-elliptic.csv beside it (rule rates_elliptic); None if neither."""
+    for candidate in (Path(p), Path(p).with_name("rates-elliptic.csv")):
+        if candidate.exists():
+            return str(candidate)
+    return None
+
+
 def other_tiers(wildcards=None):
-    """{name: rates.csv} of the other tiers whose rate table exists (not this run's own)."""
-    own = Path(OUT, "rates.csv").resolve()
-    return {name: p for name, p in config.get("tiers", {}).items()
-            if name != TIER and Path(p).resolve() != own and Path(p).exists()}
+    """{name: rate table} of the other tiers whose rate table exists (not this run's own)."""
+    own = Path(OUT).resolve()
+    found = {name: tier_table(p) for name, p in config.get("tiers", {}).items()
+             if name != TIER and Path(p).resolve().parent != own}
+    return {name: p for name, p in found.items() if p is not None}
 
 
 ENV = "../envs/fracfem.yaml"

@@ -77,7 +77,7 @@ GROUPS = [
               for c in ("rate", "n_points", "dof_max", "smallest_error")):
             "the same row's `rate`, `n_points`, `dof_max` and `smallest_error` in the tier "
             "named after the underscore (`config.yaml`: `tiers`), shown where that tier's "
-            "`rates.csv` exists",
+            "`rates.csv` (or, its parabolic series unfinished, `rates-elliptic.csv`) exists",
     }),
     ("Error against wall time (`elliptic-error-vs-time.md`, `parabolic-runs.md`)", True, {
         "common error": "the largest of the families' smallest errors",
