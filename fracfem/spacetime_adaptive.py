@@ -183,11 +183,12 @@ def _trim(cache: OrderedDict, cache_bytes: float, order: list, position: int) ->
 
     ``order``: the mesh keys of the sweep's slabs, solved in that order;
     ``position``: the slab in use.  The stepper needed furthest ahead goes first
-    (:func:`_next_use`; meshes of no slab before any), which is optimal for a
-    known sequence of requests.  The sweeps visit the slabs in time order, so
+    (:func:`_next_use`; meshes of no slab before any): Belady's rule, with the
+    next sweep's order taken to be this one's (refinement changes it) and sizes
+    in bytes rather than equal.  The sweeps visit the slabs in time order, so
     when the steppers exceed the budget, dropping the least recently used would
     drop each one just before it is needed again and assemble every mesh again
-    on every pass; this keeps as many of the next pass's first meshes as fit.
+    on every pass.
     """
     held = sum(st.nbytes for _, st in cache.values())
     if held <= cache_bytes or len(cache) <= 1:
@@ -557,7 +558,7 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
         slabs = [Slab(sl.a, sl.b, sl.coarse, n_steps=int(sl.n_steps))
                  for sl in _check_slabs(slabs, run.T, min_steps=0)]
 
-    cache: OrderedDict = OrderedDict()      # id(coarse) → (coarse, Stepper), LRU first
+    cache: OrderedDict = OrderedDict()      # id(coarse) → (coarse, Stepper), in use last
     clock = Ticker(0.0)
     logger.info("Algorithm C: at most %d iterations on [0, %g], marking %s, theta %g, "
                 "c_tau %g, tol %s", iterations, run.T, marking, theta, c_tau, tol)

@@ -865,17 +865,17 @@ def test_stepper_nbytes_counts_what_it_holds():
 
 
 def test_stepper_cache_keeps_what_the_next_sweep_needs_first():
-    """Sweeps visit the slabs in time order: with room for k ≥ 2 of n meshes,
-    the cache drops the one needed furthest ahead, so a repeated sweep
-    assembles n − k meshes again (the fewest possible: a sweep starts with at
-    most k of its n meshes at hand), where dropping the least recently used
-    would assemble all n every time."""
+    """Sweeps visit the slabs in time order: with room for k of n meshes, the
+    cache drops the one needed furthest ahead, so a repeated sweep assembles at
+    least n − k meshes again (a sweep starts with at most k of its n meshes at
+    hand) but fewer than n, where dropping the least recently used would
+    assemble all n every time."""
     from collections import OrderedDict
 
     class Held:                        # stands for a Stepper: only its size matters
         nbytes = 1
 
-    def sweeps(order, budget, passes=3):
+    def sweeps(order, budget, passes=8):
         cache, built = OrderedDict(), []
         for _ in range(passes):
             built.append(0)
@@ -887,15 +887,17 @@ def test_stepper_cache_keeps_what_the_next_sweep_needs_first():
                     built[-1] += 1
                     spacetime_adaptive._trim(cache, budget, order, j)
                 spacetime_adaptive._trim(cache, budget, order, j)
-                assert key in cache and len(cache) <= budget
+                assert key in cache and len(cache) <= max(budget, 1)
         return built
 
-    assert sweeps(list("abcde"), budget=3) == [5, 2, 2]
-    assert sweeps(list("abcde"), budget=4) == [5, 1, 1]
-    assert sweeps(list("abcde"), budget=5) == [5, 0, 0]
-    assert sweeps(list("abcde"), budget=1) == [5, 5, 5]
-    # slabs bisected in time share a mesh: a repeated key costs nothing
-    assert sweeps(list("aabbcdde"), budget=3) == [5, 2, 2]
+    for k in (2, 3, 4):
+        built = sweeps(list("abcde"), budget=k)
+        assert built[0] == 5 and all(5 - k <= b < 5 for b in built[1:]), (k, built)
+    assert sweeps(list("abcde"), budget=3)[:3] == [5, 2, 2]
+    assert sweeps(list("abcde"), budget=5) == [5] + [0] * 7
+    assert sweeps(list("abcde"), budget=1) == [5] * 8     # only the one in use
+    # slabs bisected in time share a mesh: a repeated key costs nothing more
+    assert sweeps(list("aabbcdde"), budget=3) == sweeps(list("abcde"), budget=3)
     # a mesh of no slab of the sweep (refined away) goes before any other
     cache = OrderedDict((k, (None, Held())) for k in "xab")
     spacetime_adaptive._trim(cache, 2, list("ab"), 1)

@@ -47,6 +47,14 @@ def test_new_s_values_from_the_command_line_go_to_their_own_root():
     assert re.search(r"results/custom-[0-9a-f]{10}/figures/rates.csv", text)
 
 
+def test_changed_science_of_the_paper_scale_tier_does_not_overwrite_its_committed_root():
+    _, text = dry_run("--configfile", "config/paper.yaml", "--forceall", "--config",
+                      "s_values=[0.3]")
+    outputs = re.findall(r"^\s+output: (.*)$", text, re.M)
+    assert outputs and not any("paper-figures/" in line for line in outputs)
+    assert re.search(r"results-paper/custom-[0-9a-f]{10}/figures/fig13-ex4-error.png", text)
+
+
 def test_comma_separated_and_scalar_overrides():
     _, text = dry_run("--config", "s_values=0.35,0.65")
     assert "s0.35/" in text and "s0.65/" in text

@@ -65,13 +65,29 @@ def _fingerprint(cfg):
     return hashlib.sha1(json.dumps(_science(cfg), sort_keys=True).encode()).hexdigest()[:10]
 
 
-_default = yaml.safe_load((Path(workflow.basedir) / "config.yaml").read_text())
+def _committed_tiers():
+    """{committed output root: (its config files, its configuration)}: config.yaml's, and
+    config/paper.yaml's over it (merged as --configfile merges)."""
+    import copy
+
+    from snakemake.utils import update_config
+    base = yaml.safe_load((Path(workflow.basedir) / "config.yaml").read_text())
+    paper = copy.deepcopy(base)
+    update_config(paper, yaml.safe_load(
+        (Path(workflow.basedir) / "config" / "paper.yaml").read_text()))
+    return {base["output_root"]: ("config.yaml", base),
+            paper["output_root"]: ("config.yaml + config/paper.yaml", paper)}
+
 
 RES = config["results_dir"]
 OUT = config["output_root"]
-if OUT == _default["output_root"] and _fingerprint(config) != _fingerprint(_default):
-    OUT = f"{RES}/custom-{_fingerprint(config)}/figures"
-    logger.info(f"config differs from config.yaml: figures go to {OUT}")
+# a committed output root is written only by its own configuration: a run whose science
+# differs (e.g. --config s_values=...) writes beside its results instead
+if OUT in _committed_tiers():
+    _files, _own = _committed_tiers()[OUT]
+    if _fingerprint(config) != _fingerprint(_own):
+        OUT = f"{RES}/custom-{_fingerprint(config)}/figures"
+        logger.info(f"config differs from {_files}: figures go to {OUT}")
 
 TIER = config.get("tier", "default")
 

@@ -97,7 +97,8 @@ def tiers_note(tier, tiers, absent, configured):
                         if str(p).endswith("rates-elliptic.csv") else "")
             for n, p in tiers.items()) + ", the same rows fitted by the same rule.")
     for n in absent:
-        lines.append(f"The tier {n} has not been run here (no `{configured[n]}`).")
+        lines.append(f"The tier {n} has not been run here (no `{configured[n]}`, nor the "
+                     "`rates-elliptic.csv` beside it).")
     return lines
 
 
