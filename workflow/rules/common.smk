@@ -83,8 +83,9 @@ RES = config["results_dir"]
 OUT = config["output_root"]
 # a committed output root is written only by its own configuration: a run whose science
 # differs (e.g. --config s_values=...) writes beside its results instead
-if OUT in _committed_tiers():
-    _files, _own = _committed_tiers()[OUT]
+_COMMITTED = _committed_tiers()
+if OUT in _COMMITTED:
+    _files, _own = _COMMITTED[OUT]
     if _fingerprint(config) != _fingerprint(_own):
         OUT = f"{RES}/custom-{_fingerprint(config)}/figures"
         logger.info(f"config differs from {_files}: figures go to {OUT}")
@@ -107,6 +108,12 @@ def other_tiers(wildcards=None):
     found = {name: tier_table(p) for name, p in config.get("tiers", {}).items()
              if name != TIER and Path(p).resolve().parent != own}
     return {name: p for name, p in found.items() if p is not None}
+
+
+def absent_tiers():
+    """The other tiers of the config whose rate table does not exist (yet)."""
+    found = other_tiers()
+    return [n for n in config.get("tiers", {}) if n != TIER and n not in found]
 
 
 ENV = "../envs/fracfem.yaml"

@@ -24,7 +24,7 @@ rule rates:
     params:
         tier=TIER,
         tiers=other_tiers(),
-        absent=[n for n in config.get("tiers", {}) if n != TIER and n not in other_tiers()],
+        absent=absent_tiers(),
         time_split=PARA["time_split"]["problems"],   # the tables the explanations may cite
     log:
         f"{RES}/logs/rates.log",
@@ -61,7 +61,7 @@ rule rates_elliptic:
     params:
         tier=TIER,
         tiers=other_tiers(),
-        absent=[n for n in config.get("tiers", {}) if n != TIER and n not in other_tiers()],
+        absent=absent_tiers(),
         time_split=[],
     log:
         f"{RES}/logs/rates_elliptic.log",
