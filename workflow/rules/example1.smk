@@ -12,7 +12,7 @@ rule ex1_solve:
     params:
         grading=GRADING,
         quadrature=QUADRATURE,
-    threads: 2
+    threads: SERIES_THREADS
     conda:
         ENV
     script:

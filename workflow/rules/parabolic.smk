@@ -21,7 +21,7 @@ rule para_solve:
         tol=SOLVER["tol"],
         quadrature=PARA_QUADRATURE,
         operator=lambda w: PARA["reference"]["operator"] if w.family == "reference" else "dense",
-    threads: 2
+    threads: SERIES_THREADS
     conda:
         ENV
     script:
@@ -35,6 +35,7 @@ use rule para_solve as para_reference_solve with:
     wildcard_constraints:
         problem="|".join(PARA_PROBLEMS),
         family="reference",
+    threads: 2
 
 
 # The reference's operator, assembled once (most of a minute at the default tier's size)

@@ -20,7 +20,7 @@ rule vi_solve:
         tol=SOLVER["tol"],
         maxiter=SOLVER["maxiter"],
         quadrature=QUADRATURE,
-    threads: 2
+    threads: SERIES_THREADS
     conda:
         ENV
     script:
