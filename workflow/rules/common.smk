@@ -117,12 +117,6 @@ def absent_tiers():
 
 
 ENV = "../envs/fracfem.yaml"
-
-# Threads of one run of a mesh series (ex1_solve, vi_solve, para_solve). One: most of these
-# jobs last seconds, mostly start-up and serial work (their measured CPU time is 1.0-1.6
-# times their wall time on two threads), so two of them side by side finish sooner than
-# one after the other; the long jobs (adaptive series, references, checks) keep two.
-SERIES_THREADS = 1
 EX1 = config["example1"]
 EX2 = config["example2"]
 EX3 = config["example3"]

@@ -12,7 +12,7 @@ rule ex1_solve:
     params:
         grading=GRADING,
         quadrature=QUADRATURE,
-    threads: SERIES_THREADS
+    threads: 2
     conda:
         ENV
     script:

@@ -21,7 +21,7 @@ rule para_solve:
         tol=SOLVER["tol"],
         quadrature=PARA_QUADRATURE,
         operator=lambda w: PARA["reference"]["operator"] if w.family == "reference" else "dense",
-    threads: SERIES_THREADS
+    threads: 2
     conda:
         ENV
     script:
@@ -35,7 +35,6 @@ use rule para_solve as para_reference_solve with:
     wildcard_constraints:
         problem="|".join(PARA_PROBLEMS),
         family="reference",
-    threads: 2
 
 
 # The reference's operator, assembled once (most of a minute at the default tier's size)

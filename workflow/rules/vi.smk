@@ -20,7 +20,7 @@ rule vi_solve:
         tol=SOLVER["tol"],
         maxiter=SOLVER["maxiter"],
         quadrature=QUADRATURE,
-    threads: SERIES_THREADS
+    threads: 2
     conda:
         ENV
     script:

@@ -8,9 +8,9 @@ file).  The elliptic part is Examples 1–3 and the assembly benchmark, the para
 part Examples 4–5; figures and tables are the jobs that only read results.  The total
 counts the jobs of `all` only (a dry run with --forceall lists their benchmark files; the
 configuration is --configfile's): files of other targets or of earlier configurations
-are listed as "not in `all`".  With `--cores 2` the two-thread jobs run one after another
-and the one-thread runs of the mesh series two at a time, so the sum of job seconds exceeds
-the pipeline's wall time, which `/usr/bin/time -v` measures (--time-log).
+are listed as "not in `all`".  With `--cores 2` and two threads per job the jobs run one
+after another, so the sum of job seconds is close to the pipeline's wall time, which
+`/usr/bin/time -v` measures (--time-log).
 
 --time-log: the stderr of `/usr/bin/time -v snakemake --cores 2` (a run from an empty
 results directory): its wall time and its largest process's peak memory are stated above
