@@ -37,7 +37,8 @@ from .estimators import estimate, estimate_laplace
 from .parabolic import (Stepper, TimeStep, initial_projection, solve_parabolic,
                         time_grid, time_steps)
 from .spacetime_adaptive import (IterationRecord, Slab, algorithm_c,
-                                 algorithm_c_steps, load_slabs, save_slabs, solve_slabs)
+                                 algorithm_c_steps, load_slabs, pass_size, save_slabs,
+                                 solve_slabs)
 from .spacetime_estimators import space_time_indicators
 from .stepsize import time_step
 
@@ -75,7 +76,7 @@ __all__ = [
     "initial_projection", "heat_solution", "heat_source", "heat_error",
     # space-time indicators (Theorem 6.18, Lemma 6.20) and Algorithm C
     "space_time_indicators", "algorithm_c", "algorithm_c_steps", "solve_slabs", "Slab",
-    "IterationRecord", "save_slabs", "load_slabs",
+    "IterationRecord", "save_slabs", "load_slabs", "pass_size",
     # the paper's examples, built from their parameters, and series meshes
     "EXAMPLES", "Example1", "Example2", "Example3", "Example4", "Example5",
     "ThinObstacleDemo", "ThinFrictionDemo", "example", "series_tag", "parse_series_tag",

@@ -44,6 +44,7 @@ __all__ = [
     "solve_slabs",
     "save_slabs",
     "load_slabs",
+    "pass_size",
 ]
 
 logger = logging.getLogger(__name__)
@@ -445,6 +446,45 @@ def load_slabs(path) -> tuple[list, dict]:
     slabs = [Slab(float(a[j]), float(b[j]), meshes[int(which[j])], n_steps=int(n[j]))
              for j in range(len(a))]
     return slabs, data
+
+
+def pass_size(slabs, s: float, *, c_tau: float | None = 1.0, n_min: int = 1) -> dict:
+    """The size of an Algorithm C pass on ``slabs`` before it is solved.
+
+    Each slab's fine mesh is ``refine_disk(coarse)``, its free nodes the fine mesh's
+    interior nodes, and its step count the one the pass takes (n_j = max(n_min,
+    n_j inherited, ⌈(b − a)/(c_tau h_max^{2s})⌉), as in the pass itself; ``c_tau``
+    None: the slab's own count).  For the slabs a checkpoint holds (:func:`load_slabs`)
+    this is the next pass's size, known before hours of solving it; for
+    ``IterationRecord.slabs`` it is that pass's ``dofs``.
+
+    Returns a dict: ``spacetime_dofs`` (Σ_j n_j × free_j), ``max_dofs_per_step``,
+    ``steps`` (Σ_j n_j) and ``slabs``.
+    """
+    slabs = list(slabs)
+    if not slabs or not all(isinstance(sl, Slab) for sl in slabs):
+        raise ValueError("slabs must be a non-empty list of Slab")
+    if not (_is_real(s) and 0.0 < s < 1.0):
+        raise ValueError(f"s={s!r} must be in (0, 1)")
+    if c_tau is not None:
+        c_tau = _positive("c_tau", c_tau)
+    n_min = _positive_int("n_min", n_min)
+    sizes = {}                               # slabs sharing a coarse mesh share its size
+    total = steps = largest = 0
+    for sl in slabs:
+        if id(sl.coarse) not in sizes:
+            fine = refine_disk(sl.coarse)
+            sizes[id(sl.coarse)] = (len(fine.interior_nodes()),
+                                    float(element_diameters(fine).max()))
+        n_free, h_max = sizes[id(sl.coarse)]
+        length = sl.b - sl.a
+        rule = 0 if c_tau is None else math.ceil(length / time_step(h_max, s, c_tau) - 1e-9)
+        n = max(n_min, sl.n_steps, rule)
+        total += n * n_free
+        steps += n
+        largest = max(largest, n_free)
+    return dict(spacetime_dofs=int(total), max_dofs_per_step=int(largest), steps=int(steps),
+                slabs=len(slabs))
 
 
 # ------------------------------------------------------------------ Algorithm C

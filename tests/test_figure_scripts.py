@@ -5,6 +5,7 @@ import importlib.util
 from pathlib import Path
 
 import json
+import logging
 import re
 
 import numpy as np
@@ -362,12 +363,13 @@ class _TimeLimit(Exception):
     """Stands for the end of a job's allotted time."""
 
 
-def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch):
+def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch, caplog):
     """para_adaptive ended after pass 1 (as by a time limit) and started again continues
     from its checkpoint: the table and arrays are those of the job run through (errors,
     η, DOFs to round-off), the continued pass is marked by `invocation`, and the
-    checkpoint goes once the outputs are written.  A checkpoint of other settings is
-    not continued."""
+    checkpoint goes once the outputs are written; the log gives the size of the pass to
+    come when a pass is saved and when the job continues.  A checkpoint of other
+    settings is not continued."""
     para_adaptive = script("para_adaptive")
     m = ff.disk_uniform(2)
     U = np.random.default_rng(1).standard_normal((3, m.p.shape[1]))
@@ -398,8 +400,14 @@ def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch):
         outputs(tmp_path / "cont", checkpoint=ckpt)
     assert ckpt.exists() and not (tmp_path / "cont" / "it.csv").exists()
     monkeypatch.setattr(ff, "algorithm_c_steps", real)
+    caplog.set_level(logging.INFO)
     cont, cont_arrays = outputs(tmp_path / "cont2", checkpoint=ckpt)
     assert not ckpt.exists()
+    # the continued job announces pass 2 with the size it then has, and pass 1 is not
+    # announced again (it was solved before the checkpoint)
+    said = [r.getMessage() for r in caplog.records if " will have " in r.getMessage()]
+    assert said[0].startswith(f"pass 2 will have {whole.spacetime_dofs[2]} space-time DOFs")
+    assert not any(m.startswith("pass 1 ") for m in said)
     assert cont.tag.tolist() == whole.tag.tolist() == ["it0", "it1", "it2"]
     assert cont.invocation.tolist() == [0, 0, 1] and whole.invocation.tolist() == [0, 0, 0]
     assert cont.spacetime_dofs.tolist() == whole.spacetime_dofs.tolist()

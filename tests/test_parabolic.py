@@ -556,6 +556,30 @@ def test_algorithm_c_reduces_the_estimator():
     assert recs[-1].stop == "iterations" and recs[-1].marked is None
 
 
+def test_pass_size_predicts_each_pass_before_it_is_solved(tmp_path):
+    """pass_size of a pass's slabs is its dofs; of the slabs it hands on (also as a
+    checkpoint writes and reads them), the next pass's dofs, steps and largest mesh."""
+    recs, _ = _ex4_run()
+    for r in recs:
+        size = spacetime_adaptive.pass_size(r.slabs, S)
+        assert size["spacetime_dofs"] == r.dofs
+        assert size["steps"] == len(r.steps["t"]) and size["slabs"] == len(r.slabs)
+        assert size["max_dofs_per_step"] == max(sl.n_free for sl in r.slabs)
+    for r, nxt in zip(recs[:-1], recs[1:]):
+        spacetime_adaptive.save_slabs(tmp_path / "c.npz", r.next_slabs)
+        slabs, _ = spacetime_adaptive.load_slabs(tmp_path / "c.npz")
+        for given in (r.next_slabs, slabs):
+            size = spacetime_adaptive.pass_size(given, S)
+            assert size["spacetime_dofs"] == nxt.dofs > r.dofs
+            assert size["steps"] == sum(sl.n_steps for sl in nxt.slabs)
+    with pytest.raises(ValueError, match="s=1.0"):
+        spacetime_adaptive.pass_size(recs[0].slabs, 1.0)
+    with pytest.raises(ValueError, match="non-empty list of Slab"):
+        spacetime_adaptive.pass_size([], S)
+    with pytest.raises(ValueError, match="c_tau"):
+        spacetime_adaptive.pass_size(recs[0].slabs, S, c_tau=0.0)
+
+
 def test_solve_slabs_repeats_a_pass_and_leaves_its_slabs_alone():
     recs, _ = _ex4_run()
     for r in recs:

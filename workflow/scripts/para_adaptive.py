@@ -55,6 +55,14 @@ def save_checkpoint(path, rec, key, rows, arrays, elapsed, t_eval, invocation):
                       checkpoint_invocation=np.array(invocation))
 
 
+def log_next_pass(iteration, slabs, s, c_tau):
+    """The size of the pass about to be solved, known before it is (for time limits)."""
+    size = ff.pass_size(slabs, s, c_tau=c_tau)
+    logger.info("pass %d will have %d space-time DOFs: %d slabs, %d time steps, at most "
+                "%d DOFs per step", iteration, size["spacetime_dofs"], size["slabs"],
+                size["steps"], size["max_dofs_per_step"])
+
+
 def load_checkpoint(path, key, max_spacetime_dofs, max_iterations):
     """(slabs, first iteration, rows, arrays, elapsed, t_eval, invocation) of a checkpoint
     made with ``key``; None if there is none, or it was made with other settings or
@@ -104,6 +112,8 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
              load_checkpoint(checkpoint, key, max_spacetime_dofs, max_iterations))
     slabs, first, rows, arrays, elapsed, t_done_eval, invocation = (
         state or (None, 0, [], {}, 0.0, 0.0, 0))
+    if slabs is not None:
+        log_next_pass(first, slabs, ex.s, c_tau)
     t0 = time.perf_counter()
     reference, s = stored_reference(ref, quad, ref_operator)
     t_ref = time.perf_counter() - t0
@@ -162,6 +172,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
             save_checkpoint(checkpoint, rec, key, rows, arrays,
                             time.perf_counter() - t_start, t_eval[0], invocation)
             logger.info("pass %d saved to %s", rec.iteration, checkpoint)
+            log_next_pass(rec.iteration + 1, rec.next_slabs, ex.s, c_tau)
     for j, (t_out, snap) in enumerate(sorted(last.outputs.items())):
         # the last pass's state at each output time (Figure 14): u_hτ on that slab's T_h,
         # λ_H on its T_H (none at t = 0)
