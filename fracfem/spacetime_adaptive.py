@@ -212,12 +212,17 @@ def _slab_times(slab, st, c_tau, n_min) -> np.ndarray:
     """
     slab.fine, slab.n_free = st.mesh, st.n_free
     slab.h_max = float(element_diameters(st.mesh).max())
-    length = slab.b - slab.a
-    rule = 0 if c_tau is None else math.ceil(length / time_step(slab.h_max, st.s, c_tau)
-                                               - 1e-9)
-    slab.n_steps = max(n_min, slab.n_steps, rule)   # inherited: τ never grows
-    slab.tau = length / slab.n_steps
+    slab.n_steps = _n_steps(slab, slab.h_max, st.s, c_tau, n_min)
+    slab.tau = (slab.b - slab.a) / slab.n_steps
     return np.linspace(slab.a, slab.b, slab.n_steps + 1)
+
+
+def _n_steps(slab, h_max, s, c_tau, n_min) -> int:
+    """The slab's step count in a pass: max(n_min, inherited, ⌈(b − a)/(c_tau h_max^{2s})⌉)
+    (inherited: τ never grows; c_tau None: no rule)."""
+    rule = 0 if c_tau is None else math.ceil((slab.b - slab.a) / time_step(h_max, s, c_tau)
+                                               - 1e-9)
+    return max(n_min, slab.n_steps, rule)
 
 
 class _SolveEstimate:
@@ -477,9 +482,7 @@ def pass_size(slabs, s: float, *, c_tau: float | None = 1.0, n_min: int = 1) -> 
             sizes[id(sl.coarse)] = (len(fine.interior_nodes()),
                                     float(element_diameters(fine).max()))
         n_free, h_max = sizes[id(sl.coarse)]
-        length = sl.b - sl.a
-        rule = 0 if c_tau is None else math.ceil(length / time_step(h_max, s, c_tau) - 1e-9)
-        n = max(n_min, sl.n_steps, rule)
+        n = _n_steps(sl, h_max, s, c_tau, n_min)
         total += n * n_free
         steps += n
         largest = max(largest, n_free)
