@@ -19,8 +19,8 @@ ROOT = Path(__file__).resolve().parents[2]
 def main(out):
     load = os.getloadavg()[0]
     t0 = time.perf_counter()
-    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "auto", "-p", "no:cacheprovider"],
-                         cwd=ROOT, capture_output=True, text=True)
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "auto",
+                          "-p", "no:cacheprovider"], cwd=ROOT, capture_output=True, text=True)
     minutes = (time.perf_counter() - t0) / 60
     summary = run.stdout.strip().splitlines()[-1] if run.stdout.strip() else ""
     passed = re.search(r"(\d+) passed", summary)
