@@ -28,6 +28,7 @@ import numpy as np
 from . import estimators
 from ._progress import Ticker
 from .adaptive import MARKINGS, _check_theta
+from .exact import check_s
 from .meshes import element_diameters, refine_disk
 from .parabolic import (Source, Stepper, _check_solver, _is_real, _positive,
                         _positive_int, time_steps)
@@ -386,12 +387,18 @@ def _refine_slabs(slabs, marked, slab_totals, bisect_fraction):
     return new, bisected
 
 
+def _slab_list(slabs, hint: str = "") -> list:
+    """``slabs`` as a list, refused unless a non-empty list of :class:`Slab`."""
+    slabs = list(slabs)
+    if not slabs or not all(isinstance(sl, Slab) for sl in slabs):
+        raise ValueError(f"slabs must be a non-empty list of Slab{hint}")
+    return slabs
+
+
 def _check_slabs(slabs, T, min_steps) -> list:
     """The slabs as a list, checked: :class:`Slab` objects, contiguous, covering [0, T],
     each with an integer ``n_steps`` ≥ ``min_steps``."""
-    slabs = list(slabs)
-    if not slabs or not all(isinstance(sl, Slab) for sl in slabs):
-        raise ValueError("slabs must be a non-empty list of Slab (IterationRecord.slabs)")
+    slabs = _slab_list(slabs, " (IterationRecord.slabs)")
     ends = np.array([[sl.a, sl.b] for sl in slabs], dtype=float)
     gaps = np.abs(ends[1:, 0] - ends[:-1, 1])
     tol = 1e-12 * T
@@ -415,9 +422,7 @@ def save_slabs(path, slabs, **arrays) -> None:
     unchanged).  ``arrays``: further arrays to store beside it (names not starting
     with ``slab_`` or ``coarse_``).  What a pass needs to continue Algorithm C from
     (:func:`algorithm_c` with ``slabs=`` and ``first_iteration=``)."""
-    slabs = list(slabs)
-    if not slabs or not all(isinstance(sl, Slab) for sl in slabs):
-        raise ValueError("slabs must be a non-empty list of Slab")
+    slabs = _slab_list(slabs)
     clash = [k for k in arrays if k.startswith(("slab_", "coarse_"))]
     if clash:
         raise ValueError(f"array names {clash} are reserved for the slabs")
@@ -466,11 +471,8 @@ def pass_size(slabs, s: float, *, c_tau: float | None = 1.0, n_min: int = 1) -> 
     Returns a dict: ``spacetime_dofs`` (Σ_j n_j × free_j), ``max_dofs_per_step``,
     ``steps`` (Σ_j n_j) and ``slabs``.
     """
-    slabs = list(slabs)
-    if not slabs or not all(isinstance(sl, Slab) for sl in slabs):
-        raise ValueError("slabs must be a non-empty list of Slab")
-    if not (_is_real(s) and 0.0 < s < 1.0):
-        raise ValueError(f"s={s!r} must be in (0, 1)")
+    slabs = _slab_list(slabs)
+    s = check_s(s)
     if c_tau is not None:
         c_tau = _positive("c_tau", c_tau)
     n_min = _positive_int("n_min", n_min)

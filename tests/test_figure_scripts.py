@@ -396,6 +396,7 @@ def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch, ca
             if rec.iteration == 1:
                 raise _TimeLimit
     ckpt = tmp_path / "cont" / "checkpoint.npz"
+
     def announced():
         return [r.getMessage() for r in caplog.records if " will have " in r.getMessage()]
 
