@@ -217,7 +217,7 @@ def test_algorithm_c_table_rates_of_the_estimator_parts():
     """Each part of η gets the rate of its square root over the fitted passes; a part
     at round-off level (an obstacle run's contact term) gets none; the time share is
     that of the finest pass."""
-    summary = script("parabolic_summary")
+    from fracfem_workflow.report import algorithm_c_table
     dofs = np.array([1e3, 4e3, 1.6e4, 6.4e4])
     time2 = 0.8 * dofs ** -0.5                       # √: rate −1/4
     space2 = 0.2 * dofs ** -1.0                      # √: rate −1/2
@@ -225,13 +225,74 @@ def test_algorithm_c_table_rates_of_the_estimator_parts():
                        "error": dofs ** -0.4, "eta2_time": time2, "eta2_space": space2,
                        "eta2_contact": 1e-20, "eta2_initial": 0.0,
                        "eta": np.sqrt(time2 + space2), "reference_error": 0.0})
-    row = summary.algorithm_c_table(df).iloc[0]
+    row = algorithm_c_table(df).iloc[0]
     assert row["η_time rate (same runs)"] == pytest.approx(-0.25, abs=1e-12)
     assert row["η_space rate (same runs)"] == pytest.approx(-0.5, abs=1e-12)
     assert np.isnan(row["η_contact rate (same runs)"])
     assert np.isnan(row["η_initial rate (same runs)"])
     assert row["time share of η² (finest)"] == pytest.approx(time2[-1] / (time2[-1] + space2[-1]))
     assert row["error rate (fitted runs)"] == pytest.approx(-0.4, abs=1e-12)
+
+
+def algorithm_c_run(tmp_path, reference_error):
+    """Four passes of a made-up Algorithm C run, error ∝ N^(−0.3), η = 2·error, and its
+    reference's measured error, as para_adaptive and para_reference_error write them."""
+    n = np.array([565.0, 4650.0, 13855.0, 94075.0])
+    error = 0.5 * (n / n[0]) ** -0.3
+    runs = pd.DataFrame({"problem": "ex4-u1", "example": 4, "variant": "u1",
+                         "family": "adaptive", "tag": [f"it{k}" for k in range(4)], "s": 0.5,
+                         "dofs": [113, 465, 1153, 5409], "slabs": [1, 2, 3, 7],
+                         "steps": [5, 10, 15, 35], "spacetime_dofs": n, "error": error,
+                         "eta": 2 * error, "eta2_time": 3 * error ** 2,
+                         "eta2_space": error ** 2, "t_total": [1.0, 2.0, 4.0, 8.0],
+                         "t_wall": [1.0, 3.0, 7.0, 15.0], "peak_mem_mb": 500.0})
+    iterations, ref = tmp_path / "iterations.csv", tmp_path / "reference-error.csv"
+    runs.sample(frac=1.0, random_state=1).to_csv(iterations, index=False)  # any row order
+    pd.DataFrame([{"reference_spacetime_dofs": 10 ** 6, "reference_d12": 0.02,
+                   "reference_d23": 0.01, "reference_ratio": 0.5,
+                   "reference_error": reference_error}]).to_csv(ref, index=False)
+    return runs, iterations, ref
+
+
+def test_algorithm_c_passes_are_judged_by_the_reference_alone(tmp_path, captured):
+    """Pass by pass: efficiency η/error, the margin over the reference's own error, which
+    passes a rate is fitted through (error > 3× it), local slopes of error and η, rates
+    over the fitted passes only; the figure draws the passes outside the fit hollow, against
+    space-time DOFs and against wall time."""
+    passes = script("para_passes")
+    runs, iterations, ref = algorithm_c_run(tmp_path, reference_error=0.07)
+    d = passes.passes(iterations, ref)
+    table = passes.pass_table(d)
+    assert table["pass"].tolist() == [0, 1, 2, 3]
+    np.testing.assert_allclose(table.efficiency, 2.0)
+    np.testing.assert_allclose(table["error / reference_error"], runs.error / 0.07)
+    assert table["in fit"].tolist() == ["yes" if e > 0.21 else "no" for e in runs.error]
+    assert table["in fit"].tolist() == ["yes", "yes", "no", "no"]
+    np.testing.assert_allclose(table["local slope"].iloc[1:], -0.3)
+    np.testing.assert_allclose(table["local slope η"].iloc[1:], -0.3)
+    rates = passes.algorithm_c_table(d).iloc[0]
+    assert rates["fitted"] == 2 and rates["error rate (fitted runs)"] == pytest.approx(-0.3)
+    figures, keep = captured
+    passes.save = keep
+    md = tmp_path / "out" / "ex4-u1-algorithm-c.md"
+    md.parent.mkdir()
+    passes.main(iterations, ref, md, tmp_path / "out" / "fig.png")
+    assert "own error 0.07 " in md.read_text() and "| no " in md.read_text()
+    (fig,) = figures
+    left, right = fig.axes[:2]
+    hollow = [ln for ln in left.lines if ln.get_gid() == plotstyle.LEFT_OUT]
+    assert len(hollow) == 1 and hollow[0].get_xdata().tolist() == runs.spacetime_dofs[2:].tolist()
+    assert right.lines[0].get_xdata().tolist() == runs.t_wall.tolist()
+    (hollow,) = [ln for ln in right.lines if ln.get_gid() == plotstyle.LEFT_OUT]
+    assert hollow.get_xdata().tolist() == runs.t_wall[2:].tolist()
+
+
+def test_algorithm_c_passes_refuse_another_table(tmp_path):
+    passes = script("para_passes")
+    runs, iterations, ref = algorithm_c_run(tmp_path, reference_error=0.05)
+    runs.assign(family="uniform").to_csv(iterations, index=False)
+    with pytest.raises(ValueError, match="not a table of Algorithm C's passes"):
+        passes.passes(iterations, ref)
 
 
 def test_larger_tier_reference_rows_are_named_by_their_file(tmp_path):

@@ -99,6 +99,17 @@ def test_parabolic_figure_runs_only_its_jobs(tmp_path):
     assert "ex5" not in text and "ex1_solve" not in text and "vi_solve" not in text
 
 
+def test_algorithm_c_page_runs_without_the_series(tmp_path):
+    """Algorithm C pass by pass needs its run and its reference's measured error: none of
+    the uniform and graded runs of Figures 13 and 15, nor their error measurement."""
+    _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
+                      "--", f"{tmp_path}/o/ex4-u1-algorithm-c.md")
+    jobs = job_counts(text)
+    assert set(jobs) == {"para_reference_solve", "para_reference_operator", "para_adaptive",
+                         "para_reference_error", "para_passes"}
+    assert jobs["para_adaptive"] == 1 and jobs["para_passes"] == 1
+
+
 def test_reference_error_is_measured_without_algorithm_c(tmp_path):
     """The reference's own error is a target of its own: its family's runs, the reference's
     operator and the distances, none of Algorithm C's passes."""

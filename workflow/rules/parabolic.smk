@@ -146,6 +146,38 @@ rule para_errors:
         "../scripts/para_errors.py"
 
 
+# Algorithm C's passes of one problem from its own run and its reference's measured
+# error alone: no uniform or graded series (seconds; the paper-scale tier's Algorithm C
+# runs are read here before the series of Figures 13 and 15 exist)
+rule para_passes:
+    input:
+        table=rules.para_adaptive.output.table,
+        ref_error=rules.para_reference_error.output.csv,
+    output:
+        md=report(
+            f"{OUT}/{{problem}}-algorithm-c.md",
+            caption="../../report/captions/algorithm-c.rst",
+            category="Across examples",
+            subcategory="Examples 4 and 5",
+        ),
+        png=report(
+            f"{OUT}/extra-{{problem}}-algorithm-c.png",
+            caption="../../report/captions/algorithm-c.rst",
+            category="Across examples",
+            subcategory="Examples 4 and 5",
+        ),
+    wildcard_constraints:
+        problem="|".join(PARA_PROBLEMS),
+    log:
+        f"{RES}/logs/para/{{problem}}_passes.log",
+    benchmark:
+        f"{RES}/benchmarks/para/{{problem}}_passes.tsv"
+    conda:
+        ENV
+    script:
+        "../scripts/para_passes.py"
+
+
 rule fig_para_error:
     input:
         csv=para_error_tables,

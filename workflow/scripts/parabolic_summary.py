@@ -8,7 +8,7 @@ import pandas as pd
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to, script_logger
 from fracfem_workflow.plotstyle import ERROR_LABELS, plt, problem_title, save, time_panel
-from fracfem_workflow.report import eta_energy_time, fit_mask, fit_rate, masked_rate
+from fracfem_workflow.report import algorithm_c_table
 
 logger = script_logger("parabolic_summary")
 
@@ -74,48 +74,6 @@ def larger_reference_passes(df, paths):
                   "local slope (larger reference)": slope(e2)[k]}
                  for k, tag in enumerate(ours.tag)]
     return pd.DataFrame(rows)
-
-
-def algorithm_c_table(df):
-    """Algorithm C per problem: the error's and the estimator's rate, and the efficiency
-    index η/error of every pass."""
-    rows = []
-    for prob, d in df[df.family == "adaptive"].groupby("problem"):
-        d = d.sort_values("spacetime_dofs")
-        keep = fit_mask(d.error, d.reference_error.iloc[0])
-        eff = d.eta / d.error
-        parts = {}
-        for part in PARTS:
-            col = d[f"eta2_{part}"].clip(lower=0.0) ** 0.5 if f"eta2_{part}" in d else None
-            # a part at round-off level (the obstacle's contact term) has no rate
-            parts[f"η_{part} rate (same runs)"] = (
-                np.nan if col is None or not np.all(col > 1e-6 * d.eta)
-                else masked_rate(d.spacetime_dofs, col, keep))
-        finest = d.iloc[-1]
-        # the same with the time term in the energy norm (a diagnostic outside η)
-        anorm = {}
-        eta_a = eta_energy_time(d)
-        if eta_a.notna().all():
-            anorm = {"η_time,a rate (same runs)": masked_rate(
-                         d.spacetime_dofs, d.eta2_time_anorm.clip(lower=0.0) ** 0.5, keep),
-                     "η_a rate (same runs)": masked_rate(d.spacetime_dofs, eta_a, keep),
-                     "η_a efficiency per pass": ", ".join(f"{e:.2f}"
-                                                          for e in eta_a / d.error)}
-        rows.append({"problem": prob, "passes": len(d),
-                     "spacetime_dofs": int(d.spacetime_dofs.max()),
-                     "error rate (fitted runs)": masked_rate(d.spacetime_dofs, d.error, keep),
-                     "η rate (same runs)": masked_rate(d.spacetime_dofs, d.eta, keep),
-                     "η rate (all)": fit_rate(d.spacetime_dofs, d.eta),
-                     **parts,
-                     "time share of η² (finest)": (finest.get("eta2_time", np.nan)
-                                                    / finest.eta ** 2),
-                     "fitted": int(keep.sum()),
-                     "efficiency per pass": ", ".join(f"{e:.2f}" for e in eff),
-                     "max/min": eff.max() / eff.min(), **anorm})
-    return pd.DataFrame(rows)
-
-
-PARTS = ("space", "time", "contact", "initial")    # the parts of η² (Theorem 6.18)
 
 
 def main(csvs, md, png, larger=(), larger_runs=()):

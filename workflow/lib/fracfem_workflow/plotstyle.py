@@ -76,6 +76,42 @@ def reference_error_lines(ax, reference_error, how):
                label="3× that: fits use only errors above")
 
 
+def para_error_panel(ax, df, x="spacetime_dofs"):
+    """One parabolic problem's errors on ax (Figures 13, 15): each family's error against
+    ``x`` with its fitted and the paper's rate (rate_series), the estimator η and η with
+    its time term in the energy norm beside the adaptive error, the reference's own error
+    and 3× it.  df: para_errors' table, or Algorithm C's passes with a
+    ``reference_error`` column.  Rates are fitted against space-time DOFs only: against
+    wall time (``x="t_wall"``) the series are drawn without one, the runs outside the
+    fit hollow as on the left."""
+    from .report import eta_energy_time, fit_mask, fit_rate, paper_rate
+
+    ex = int(df.example.iloc[0])
+    for fam, g in df.groupby("family"):
+        g = g.sort_values(x)
+        if x == "spacetime_dofs":
+            rate_series(ax, g[x], g.error, fam, g.reference_error.max(),
+                        paper_rate(ex, fam, g.s.iloc[0], g.variant.fillna("").iloc[0]))
+        else:
+            (line,) = ax.loglog(g[x], g.error, marker=MARKERS[fam], label=FAMILY_LABELS[fam])
+            out = ~fit_mask(g.error, g.reference_error.max())
+            if out.any():
+                (hollow,) = ax.loglog(g[x][out], g.error[out], ls="none", marker=MARKERS[fam],
+                                      mfc="white", color=line.get_color(),
+                                      zorder=line.get_zorder() + 1)
+                hollow.set_gid(LEFT_OUT)
+        if "eta" in g and g.eta.notna().any():
+            rate = (f": {fit_rate(g[x], g.eta):.3f}" if x == "spacetime_dofs" else "")
+            ax.loglog(g[x], g.eta, ls=":", marker=".", color="k",
+                      label=rf"estimator $\eta$ ({FAMILY_LABELS[fam]}){rate}")
+        eta_a = eta_energy_time(g)      # docs/differences.md
+        if eta_a.notna().any():
+            rate = (f": {fit_rate(g[x], eta_a):.3f}" if x == "spacetime_dofs" else "")
+            ax.loglog(g[x], eta_a, ls="-.", marker=".", color="0.45",
+                      label=r"$\eta$ with its time term in the energy norm" + rate)
+    reference_error_lines(ax, df.reference_error.iloc[0], "measured")
+
+
 # Axis labels: what is measured, in the paper's symbols.
 DOFS = "degrees of freedom"
 SPACETIME_DOFS = "space-time degrees of freedom"

@@ -7,7 +7,7 @@ import pandas as pd
 __all__ = ["PAPER_RATES", "PAPER_S", "REFERENCE_MARGIN", "paper_rate", "fit_rate", "fit_mask",
            "masked_rate",
            "rate_table", "extrapolate_energy", "extrapolation_uncertainty",
-           "energy_error", "time_to_reach"]
+           "energy_error", "time_to_reach", "algorithm_c_table", "PARTS"]
 
 # error in H^s vs DOFs (parabolic: vs space-time DOFs), paper Section 8
 PAPER_RATES = {
@@ -251,3 +251,45 @@ def time_to_reach(wall_times, errors, level) -> float:
             w = (e[k - 1] - np.log(level)) / (e[k - 1] - e[k])
             return float(np.exp(t[k - 1] + w * (t[k] - t[k - 1])))
     return np.nan
+
+
+def algorithm_c_table(df):
+    """Algorithm C per problem: the error's and the estimator's rate, and the efficiency
+    index η/error of every pass."""
+    rows = []
+    for prob, d in df[df.family == "adaptive"].groupby("problem"):
+        d = d.sort_values("spacetime_dofs")
+        keep = fit_mask(d.error, d.reference_error.iloc[0])
+        eff = d.eta / d.error
+        parts = {}
+        for part in PARTS:
+            col = d[f"eta2_{part}"].clip(lower=0.0) ** 0.5 if f"eta2_{part}" in d else None
+            # a part at round-off level (the obstacle's contact term) has no rate
+            parts[f"η_{part} rate (same runs)"] = (
+                np.nan if col is None or not np.all(col > 1e-6 * d.eta)
+                else masked_rate(d.spacetime_dofs, col, keep))
+        finest = d.iloc[-1]
+        # the same with the time term in the energy norm (a diagnostic outside η)
+        anorm = {}
+        eta_a = eta_energy_time(d)
+        if eta_a.notna().all():
+            anorm = {"η_time,a rate (same runs)": masked_rate(
+                         d.spacetime_dofs, d.eta2_time_anorm.clip(lower=0.0) ** 0.5, keep),
+                     "η_a rate (same runs)": masked_rate(d.spacetime_dofs, eta_a, keep),
+                     "η_a efficiency per pass": ", ".join(f"{e:.2f}"
+                                                          for e in eta_a / d.error)}
+        rows.append({"problem": prob, "passes": len(d),
+                     "spacetime_dofs": int(d.spacetime_dofs.max()),
+                     "error rate (fitted runs)": masked_rate(d.spacetime_dofs, d.error, keep),
+                     "η rate (same runs)": masked_rate(d.spacetime_dofs, d.eta, keep),
+                     "η rate (all)": fit_rate(d.spacetime_dofs, d.eta),
+                     **parts,
+                     "time share of η² (finest)": (finest.get("eta2_time", np.nan)
+                                                    / finest.eta ** 2),
+                     "fitted": int(keep.sum()),
+                     "efficiency per pass": ", ".join(f"{e:.2f}" for e in eff),
+                     "max/min": eff.max() / eff.min(), **anorm})
+    return pd.DataFrame(rows)
+
+
+PARTS = ("space", "time", "contact", "initial")    # the parts of η² (Theorem 6.18)

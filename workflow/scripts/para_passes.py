@@ -1,0 +1,91 @@
+"""Algorithm C's passes of one parabolic problem from its own run and its reference's
+measured error alone, without the uniform and graded series of Figures 13 and 15: a table
+of every pass (estimator, error, efficiency index, local slopes, time, memory) and the
+error and η against space-time DOFs and against wall time."""
+import numpy as np
+import pandas as pd
+
+from fracfem_workflow.io import atomic_path
+from fracfem_workflow.logs import log_to, script_logger
+from fracfem_workflow.plotstyle import (ERROR_LABELS, SPACETIME_DOFS, legend_below,
+                                        para_error_panel, plt, problem_title, save)
+from fracfem_workflow.report import REFERENCE_MARGIN, algorithm_c_table, fit_mask
+
+logger = script_logger("para_passes")
+
+REFERENCE = ["reference_spacetime_dofs", "reference_d12", "reference_d23", "reference_ratio",
+             "reference_error"]
+
+
+def passes(iterations, reference):
+    """Algorithm C's passes (para_adaptive's table) with the reference's own error
+    (para_reference_error's row) beside each."""
+    d = pd.read_csv(iterations).sort_values("spacetime_dofs", ignore_index=True)
+    ref = pd.read_csv(reference).iloc[0]
+    missing = sorted({"family", "tag", "spacetime_dofs", "error", "eta"} - set(d.columns))
+    if missing or len(d) == 0 or set(d.family) != {"adaptive"}:
+        raise ValueError(f"{iterations}: not a table of Algorithm C's passes "
+                         f"(missing columns {missing}, families {sorted(set(d.family))})")
+    return d.assign(**{c: ref[c] for c in REFERENCE})
+
+
+def pass_table(d):
+    """One row per pass: its size, η, error, efficiency index, margin over the reference's
+    own error and whether a rate is fitted through it, the local slopes of the error and of
+    η, its time and the job's peak memory so far."""
+    n = np.log(d.spacetime_dofs.to_numpy(float))
+    slope = lambda y: np.r_[np.nan, np.diff(np.log(y.to_numpy(float))) / np.diff(n)]  # noqa: E731
+    table = pd.DataFrame({
+        "pass": d.tag.str.removeprefix("it").astype(int), "slabs": d.slabs,
+        "steps": d.steps, "dofs": d.dofs, "spacetime_dofs": d.spacetime_dofs,
+        "eta": d.eta, "error": d.error, "efficiency": d.eta / d.error,
+        "error / reference_error": d.error / d.reference_error,
+        "in fit": np.where(fit_mask(d.error, d.reference_error.iloc[0]), "yes", "no"),
+        "local slope": slope(d.error), "local slope η": slope(d.eta)})
+    for col in ("t_total", "t_wall", "t_error_measurement", "peak_mem_mb"):
+        if col in d:
+            table[col] = d[col]
+    return table
+
+
+def figure(d, png):
+    """Error and η of every pass against space-time DOFs (with the rates fitted as in
+    Figure 13/15) and against the wall time of all passes so far."""
+    fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.4), sharey=True)
+    for ax, x, label in ((axes[0], "spacetime_dofs", SPACETIME_DOFS),
+                         (axes[1], "t_wall", "wall time of all passes so far [s]")):
+        para_error_panel(ax, d, x)
+        ax.set_xlabel(label)
+        legend_below(ax)
+    axes[0].set_ylabel(ERROR_LABELS["parabolic"])
+    fig.suptitle(f"Algorithm C, {problem_title(d.problem.iloc[0])}, $s = {d.s.iloc[0]:g}$")
+    save(fig, png)
+
+
+def page(d):
+    ref = d.iloc[0]
+    return ("Algorithm C pass by pass: error measured against the reference run "
+            f"({int(ref.reference_spacetime_dofs):,} space-time DOFs), whose own error "
+            f"{ref.reference_error:.4g} is measured from its family's two coarser runs "
+            f"(d12 = {ref.reference_d12:.4g}, d23 = {ref.reference_d23:.4g}, "
+            f"r = {ref.reference_ratio:.3g}). A pass enters a rate fit only if its error "
+            f"exceeds {REFERENCE_MARGIN:g}× that (`in fit`); below, the measured error is "
+            "as much the reference's as the pass's, and its local slope says nothing.\n\n"
+            + pass_table(d).to_markdown(index=False, floatfmt=".4g")
+            + "\n\nRates over the passes in the fit and of η over all passes, and the "
+            "efficiency index η/error of every pass:\n\n"
+            + algorithm_c_table(d).to_markdown(index=False, floatfmt=".3g") + "\n")
+
+
+def main(iterations, reference, md, png):
+    d = passes(iterations, reference)
+    figure(d, png)
+    with atomic_path(md) as tmp:
+        tmp.write_text(page(d))
+    logger.info("%s: %d passes to %d space-time DOFs", md, len(d), d.spacetime_dofs.max())
+
+
+if __name__ == "__main__":
+    log_to(snakemake.log[0])  # noqa: F821
+    main(snakemake.input.table, snakemake.input.ref_error,  # noqa: F821
+         snakemake.output.md, snakemake.output.png)  # noqa: F821
