@@ -507,3 +507,24 @@ def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch, ca
     ints = [c for c in whole if whole[c].dtype.kind == "i"]
     assert {"dofs", "spacetime_dofs", "slabs", "steps"} <= set(ints)
     assert [c for c in ints if cont[c].dtype.kind != "i"] == []
+
+
+def test_results_page_names_one_file_per_problem_of_each_list(tmp_path):
+    """"{problem}" stands for the problems of parabolic.time_split, "{para}" for every
+    parabolic problem; a file the page names but the run did not make is an error."""
+    page = script("results_page")
+    assert page.expand("{problem}-time-split.md", ["ex5"], ["ex4-u1", "ex5"]) == [
+        "ex5-time-split.md"]
+    assert page.expand("{para}-algorithm-c.md", ["ex5"], ["ex4-u1", "ex5"]) == [
+        "ex4-u1-algorithm-c.md", "ex5-algorithm-c.md"]
+    assert page.expand("rates.md", ["ex5"], ["ex4-u1"]) == ["rates.md"]
+    names = {n for _, _, figures, tables in page.SECTIONS for entry in figures + tables
+             for n in page.expand(entry, ["ex5"], ["ex4-u1", "ex5"])}
+    for name in names:
+        (tmp_path / name).write_text(f"table {name}")
+    text = page.render(tmp_path, ["ex5"], ["ex4-u1", "ex5"])
+    assert "![extra-ex4-u1-algorithm-c.png]" in text and "table ex5-algorithm-c.md" in text
+    assert "ex4-u1-time-split.md" not in text
+    (tmp_path / "extra-ex5-algorithm-c.png").unlink()
+    with pytest.raises(FileNotFoundError, match="extra-ex5-algorithm-c.png is missing"):
+        page.render(tmp_path, ["ex5"], ["ex4-u1", "ex5"])

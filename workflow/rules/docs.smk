@@ -30,10 +30,12 @@ rule results_page:
         rules.para_reference_check.output.md,
         rules.ex5_uniform_cause.output.md,
         expand(rules.para_time_split.output.md, problem=PARA["time_split"]["problems"]),
+        expand(rules.para_passes.output, problem=PARA_PROBLEMS),
         rules.benchmark_assembly.output.md,
         rules.bad_inputs.output.md,
     params:
         time_split=PARA["time_split"]["problems"],
+        para=PARA_PROBLEMS,
     output:
         md=report(
             f"{OUT}/RESULTS.md",

@@ -8,7 +8,8 @@ from pathlib import Path
 from fracfem_workflow.io import atomic_path
 
 # (heading, intro, figures, tables): figures and tables by file name in the figure root (a
-# table name with "{problem}" stands for one file per problem of parabolic.time_split).
+# name with "{problem}" stands for one file per problem of parabolic.time_split, one with
+# "{para}" for one file per parabolic problem).
 SECTIONS = [
     ("Example 1: the exact solution (s = 0.5 and the configured orders)",
      "Energy error ‖u − u_h‖ = ((f,u) − (f,u_h))^½ against the exact energy, on uniform, "
@@ -45,9 +46,10 @@ SECTIONS = [
      "error is the L²(0,T; Hˢ) distance to a fine reference run.",
      ["fig10-ex4-solution.png", "fig11-ex4-indicators-in-time.png",
       "fig12-ex4-spacetime-meshes.png", "fig13-ex4-error.png", "fig14-ex5-solution.png",
-      "fig15-ex5-error.png", "extra-parabolic-error-vs-time.png"],
-     ["parabolic-runs.md", "ex5-free-boundary.md", "ex5-uniform-rate.md",
-      "{problem}-time-split.md", "parabolic-reference-check.md"]),
+      "fig15-ex5-error.png", "extra-parabolic-error-vs-time.png",
+      "extra-{para}-algorithm-c.png"],
+     ["parabolic-runs.md", "{para}-algorithm-c.md", "ex5-free-boundary.md",
+      "ex5-uniform-rate.md", "{problem}-time-split.md", "parabolic-reference-check.md"]),
     ("Assembly benchmark",
      "Example 1, s = 0.5, uniform disks, warm numba cache; `floor_s` is one kernel "
      "evaluation per unordered element pair in the same process.",
@@ -66,31 +68,41 @@ TITLE = ("# Results\n\nEvery figure and table of the last `snakemake` run in thi
          "benchmark_compressed`).\n")
 
 
-def render(root, problems=()):
+def expand(entry, problems, para):
+    """The file names an entry of SECTIONS stands for: "{problem}" once per problem of
+    ``problems``, "{para}" once per problem of ``para``."""
+    if "{problem}" in entry:
+        return [entry.format(problem=p) for p in problems]
+    if "{para}" in entry:
+        return [entry.format(para=p) for p in para]
+    return [entry]
+
+
+def render(root, problems=(), para=()):
     """The page's text from the files in `root`; a missing file is an error.
-    problems: those of the tables named with "{problem}", in order."""
+    problems: those of the names with "{problem}" (parabolic.time_split), para: those of
+    the names with "{para}" (every parabolic problem), in order."""
     root = Path(root)
     parts = [TITLE]
     for heading, intro, figures, tables in SECTIONS:
         parts.append(f"\n## {heading}\n\n{intro}\n")
-        for name in figures:
+        for name in (n for entry in figures for n in expand(entry, problems, para)):
             if not (root / name).exists():
                 raise FileNotFoundError(f"{root / name} is missing: run its rule first")
             parts.append(f"\n![{name}]({name})\n")
         for entry in tables:
-            names = [entry.format(problem=p) for p in problems] if "{" in entry else [entry]
-            for name in names:
+            for name in expand(entry, problems, para):
                 text = (root / name).read_text().strip()
                 parts.append(f"\n### `{name}`\n\n{text}\n")
     return "".join(parts)
 
 
-def main(root, out, problems=()):
-    text = render(root, problems)
+def main(root, out, problems=(), para=()):
+    text = render(root, problems, para)
     with atomic_path(out) as tmp:
         tmp.write_text(text)
 
 
 if __name__ == "__main__":
     main(Path(snakemake.output.md).parent, snakemake.output.md,  # noqa: F821
-         snakemake.params.time_split)  # noqa: F821
+         snakemake.params.time_split, snakemake.params.para)  # noqa: F821
