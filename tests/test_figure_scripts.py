@@ -244,8 +244,11 @@ def algorithm_c_run(tmp_path, reference_error):
                          "dofs": [113, 465, 1153, 5409], "slabs": [1, 2, 3, 7],
                          "steps": [5, 10, 15, 35], "spacetime_dofs": n, "error": error,
                          "eta": 2 * error, "eta2_time": 3 * error ** 2,
-                         "eta2_space": error ** 2, "t_total": [1.0, 2.0, 4.0, 8.0],
-                         "t_wall": [1.0, 3.0, 7.0, 15.0], "peak_mem_mb": 500.0})
+                         "eta2_space": error ** 2, "eta2_time_anorm": 2 * error ** 2,
+                         "t_total": [1.0, 2.0, 4.0, 8.0], "t_wall": [1.0, 3.0, 7.0, 15.0],
+                         # para_adaptive: all passes' measurements so far
+                         "t_error_measurement": [5.0, 11.0, 18.0, 30.0],
+                         "peak_mem_mb": 500.0})
     iterations, ref = tmp_path / "iterations.csv", tmp_path / "reference-error.csv"
     runs.sample(frac=1.0, random_state=1).to_csv(iterations, index=False)  # any row order
     pd.DataFrame([{"reference_spacetime_dofs": 10 ** 6, "reference_d12": 0.02,
@@ -266,8 +269,8 @@ def test_algorithm_c_passes_are_judged_by_the_reference_alone(tmp_path, captured
     assert table["pass"].tolist() == [0, 1, 2, 3]
     np.testing.assert_allclose(table.efficiency, 2.0)
     np.testing.assert_allclose(table["error / reference_error"], runs.error / 0.07)
-    assert table["in fit"].tolist() == ["yes" if e > 0.21 else "no" for e in runs.error]
-    assert table["in fit"].tolist() == ["yes", "yes", "no", "no"]
+    assert table["in fit"].tolist() == ["yes", "yes", "no", "no"]     # 3 × 0.07 = 0.21
+    assert table.t_error_pass.tolist() == [5.0, 6.0, 7.0, 12.0]
     np.testing.assert_allclose(table["local slope"].iloc[1:], -0.3)
     np.testing.assert_allclose(table["local slope η"].iloc[1:], -0.3)
     rates = passes.algorithm_c_table(d).iloc[0]
@@ -277,9 +280,20 @@ def test_algorithm_c_passes_are_judged_by_the_reference_alone(tmp_path, captured
     md = tmp_path / "out" / "ex4-u1-algorithm-c.md"
     md.parent.mkdir()
     passes.main(iterations, ref, md, tmp_path / "out" / "fig.png")
-    assert "own error 0.07 " in md.read_text() and "| no " in md.read_text()
+    text = md.read_text()
+    assert "own error 0.07 " in text
+    rows = [ln for ln in text.splitlines() if ln.startswith("|") and "---" not in ln]
+    head = [c.strip() for c in rows[0].strip("|").split("|")]
+    fit = [ln.strip("|").split("|")[head.index("in fit")].strip() for ln in rows[1:5]]
+    assert fit == ["yes", "yes", "no", "no"]
     (fig,) = figures
     left, right = fig.axes[:2]
+    # the legend of Figures 13 and 15: the error's rate over the fitted passes and the
+    # paper's, η's and η_a's over all passes
+    labels = left.get_legend_handles_labels()[1]
+    assert labels[0] == "adaptive: -0.300 (paper -0.319)"
+    assert labels[1] == r"estimator $\eta$ (adaptive): -0.300"
+    assert labels[2] == r"$\eta$ with its time term in the energy norm: -0.300"
     hollow = [ln for ln in left.lines if ln.get_gid() == plotstyle.LEFT_OUT]
     assert len(hollow) == 1 and hollow[0].get_xdata().tolist() == runs.spacetime_dofs[2:].tolist()
     assert right.lines[0].get_xdata().tolist() == runs.t_wall.tolist()
@@ -290,9 +304,11 @@ def test_algorithm_c_passes_are_judged_by_the_reference_alone(tmp_path, captured
 def test_algorithm_c_passes_refuse_another_table(tmp_path):
     passes = script("para_passes")
     runs, iterations, ref = algorithm_c_run(tmp_path, reference_error=0.05)
-    runs.assign(family="uniform").to_csv(iterations, index=False)
-    with pytest.raises(ValueError, match="not a table of Algorithm C's passes"):
-        passes.passes(iterations, ref)
+    for other in (runs.assign(family="uniform"), runs.drop(columns="spacetime_dofs"),
+                  runs.drop(columns="family"), runs.iloc[:0]):
+        other.to_csv(iterations, index=False)
+        with pytest.raises(ValueError, match="not a table of Algorithm C's passes"):
+            passes.passes(iterations, ref)
 
 
 def test_larger_tier_reference_rows_are_named_by_their_file(tmp_path):

@@ -147,8 +147,7 @@ rule para_errors:
 
 
 # Algorithm C's passes of one problem from its own run and its reference's measured
-# error alone: no uniform or graded series (seconds; the paper-scale tier's Algorithm C
-# runs are read here before the series of Figures 13 and 15 exist)
+# error alone (seconds): neither the uniform and graded series nor their error measurement
 rule para_passes:
     input:
         table=rules.para_adaptive.output.table,

@@ -20,19 +20,22 @@ REFERENCE = ["reference_spacetime_dofs", "reference_d12", "reference_d23", "refe
 def passes(iterations, reference):
     """Algorithm C's passes (para_adaptive's table) with the reference's own error
     (para_reference_error's row) beside each."""
-    d = pd.read_csv(iterations).sort_values("spacetime_dofs", ignore_index=True)
+    d = pd.read_csv(iterations)
     ref = pd.read_csv(reference).iloc[0]
     missing = sorted({"family", "tag", "spacetime_dofs", "error", "eta"} - set(d.columns))
-    if missing or len(d) == 0 or set(d.family) != {"adaptive"}:
+    families = sorted(set(d.get("family", ())))
+    if missing or len(d) == 0 or families != ["adaptive"]:
         raise ValueError(f"{iterations}: not a table of Algorithm C's passes "
-                         f"(missing columns {missing}, families {sorted(set(d.family))})")
+                         f"(missing columns {missing}, families {families})")
+    d = d.sort_values("spacetime_dofs", ignore_index=True)
     return d.assign(**{c: ref[c] for c in REFERENCE})
 
 
 def pass_table(d):
     """One row per pass: its size, η, error, efficiency index, margin over the reference's
     own error and whether a rate is fitted through it, the local slopes of the error and of
-    η, its time and the job's peak memory so far."""
+    η, its own time and that of all passes so far, the time its error measurement took, and
+    the job's peak memory so far."""
     n = np.log(d.spacetime_dofs.to_numpy(float))
     slope = lambda y: np.r_[np.nan, np.diff(np.log(y.to_numpy(float))) / np.diff(n)]  # noqa: E731
     table = pd.DataFrame({
@@ -42,9 +45,13 @@ def pass_table(d):
         "error / reference_error": d.error / d.reference_error,
         "in fit": np.where(fit_mask(d.error, d.reference_error.iloc[0]), "yes", "no"),
         "local slope": slope(d.error), "local slope η": slope(d.eta)})
-    for col in ("t_total", "t_wall", "t_error_measurement", "peak_mem_mb"):
+    for col in ("t_total", "t_wall"):
         if col in d:
             table[col] = d[col]
+    if "t_error_measurement" in d:      # para_adaptive: all passes' measurements so far
+        table["t_error_pass"] = d.t_error_measurement.diff().fillna(d.t_error_measurement)
+    if "peak_mem_mb" in d:
+        table["peak_mem_mb"] = d.peak_mem_mb
     return table
 
 
@@ -69,10 +76,11 @@ def page(d):
             f"{ref.reference_error:.4g} is measured from its family's two coarser runs "
             f"(d12 = {ref.reference_d12:.4g}, d23 = {ref.reference_d23:.4g}, "
             f"r = {ref.reference_ratio:.3g}). A pass enters a rate fit only if its error "
-            f"exceeds {REFERENCE_MARGIN:g}× that (`in fit`); below, the measured error is "
-            "as much the reference's as the pass's, and its local slope says nothing.\n\n"
+            f"exceeds {REFERENCE_MARGIN:g}× that (`in fit`); at or below that bound the "
+            "measured error is as much the reference's as the pass's, and its local slope "
+            "says nothing.\n\n"
             + pass_table(d).to_markdown(index=False, floatfmt=".4g")
-            + "\n\nRates over the passes in the fit and of η over all passes, and the "
+            + "\n\nRates over the passes in the fit (η's also over all passes), and the "
             "efficiency index η/error of every pass:\n\n"
             + algorithm_c_table(d).to_markdown(index=False, floatfmt=".3g") + "\n")
 

@@ -195,14 +195,14 @@ GROUPS = [
         "last local slope": "`local slope` of the finest run",
     }),
     ("Algorithm C pass by pass (`<problem>-algorithm-c.md`)", False, {
-        "slabs": "time slabs of the pass (each with its own space mesh)",
+        "slabs": "time slabs of the pass, each with one space mesh for all its time steps",
         "error / reference_error": "the pass's error over the reference's own: the margin "
                                    "of the 3× rule",
         "in fit": "whether the pass's error exceeds 3× `reference_error`, so that rates are "
                   "fitted through it",
         "local slope η": "`local slope` of the estimator η",
-        "t_error_measurement": "seconds to measure the pass's error against the reference "
-                               "run (not in `t_wall`)",
+        "t_error_pass": "seconds to measure the pass's error against the reference run "
+                        "(in neither `t_total` nor `t_wall`)",
     }),
     ("Time split of Algorithm C's error (`<problem>-time-split.md`)", False, {
         "time steps": "each pass with its own time steps, or with m times as many on every "
