@@ -5,6 +5,9 @@ from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import plt, problem_title, save
 
 
+RASTER_TRIANGLES = 50_000     # meshes with more triangles are drawn rasterized
+
+
 def slices(d, key):
     out, j = [], 0
     while f"p_{key}_{j}" in d:
@@ -24,7 +27,10 @@ def main(npz, png, pdf):
     for r, (key, sl) in enumerate(rows):
         for c, (t_out, p, t) in enumerate(sl):
             ax = axes[r][c]
-            ax.triplot(p[0], p[1], t.T, lw=0.15, color="k")
+            # a mesh of the paper-scale tier (10⁵–10⁶ triangles) as vector lines makes a
+            # PDF of tens of MB: drawn as an image inside the PDF instead
+            ax.triplot(p[0], p[1], t.T, lw=0.15, color="k",
+                       rasterized=t.shape[1] > RASTER_TRIANGLES)
             name = f"pass {last_it}" if key == "last" else f"pass {key[2:]}"
             ax.set_title(f"{name}, $t = {t_out:g}$: {t.shape[1]} triangles")
             ax.set_aspect("equal")
