@@ -9,7 +9,8 @@ from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to, script_logger
 from fracfem_workflow.plotstyle import (ERROR_LABELS, SPACETIME_DOFS, legend_below,
                                         para_error_panel, plt, problem_title, save)
-from fracfem_workflow.report import REFERENCE_MARGIN, algorithm_c_table, fit_mask
+from fracfem_workflow.report import (REFERENCE_MARGIN, algorithm_c_table, fit_mask,
+                                     local_slopes)
 
 logger = script_logger("para_passes")
 
@@ -36,8 +37,7 @@ def pass_table(d):
     own error and whether a rate is fitted through it, the local slopes of the error and of
     η, its own time and that of all passes so far, the time its error measurement took, and
     the job's peak memory so far."""
-    n = np.log(d.spacetime_dofs.to_numpy(float))
-    slope = lambda y: np.r_[np.nan, np.diff(np.log(y.to_numpy(float))) / np.diff(n)]  # noqa: E731
+    slope = lambda y: local_slopes(d.spacetime_dofs, y, d.problem).to_numpy()  # noqa: E731
     table = pd.DataFrame({
         "pass": d.tag.str.removeprefix("it").astype(int), "slabs": d.slabs,
         "steps": d.steps, "dofs": d.dofs, "spacetime_dofs": d.spacetime_dofs,

@@ -8,7 +8,7 @@ import pandas as pd
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to, script_logger
 from fracfem_workflow.plotstyle import ERROR_LABELS, plt, problem_title, save, time_panel
-from fracfem_workflow.report import algorithm_c_table
+from fracfem_workflow.report import algorithm_c_table, local_slopes
 
 logger = script_logger("parabolic_summary")
 
@@ -66,7 +66,7 @@ def larger_reference_passes(df, paths):
             logger.warning("%s: other passes than this run's %s; left out", path, problem)
             continue
         n = ours.spacetime_dofs.to_numpy(float)
-        slope = lambda e: np.r_[np.nan, np.diff(np.log(e)) / np.diff(np.log(n))]  # noqa: E731
+        slope = lambda e: local_slopes(n, e, np.zeros(len(n))).to_numpy()  # noqa: E731
         e1, e2 = ours.error.to_numpy(float), theirs.error.to_numpy(float)
         rows += [{"problem": problem, "pass": int(tag.removeprefix("it")),
                   "spacetime_dofs": int(n[k]), "error": e1[k], "local slope": slope(e1)[k],

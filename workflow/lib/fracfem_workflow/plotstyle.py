@@ -41,15 +41,21 @@ def rate_series(ax, x, y, family, reference_error=0.0, paper=None, exclude=None)
              else f"{FAMILY_LABELS[family]}: no rate (< 2 runs above 3× reference error)")
     label += f" (paper {paper:.3f})" if paper is not None else ""
     (line,) = ax.loglog(x, y, marker=MARKERS[family], label=label)
+    left_out_markers(ax, line, x, y, keep, family)
+    return rate
+
+
+LEFT_OUT = "left out of the fit"      # gid of the hollow markers of rate_series
+
+
+def left_out_markers(ax, line, x, y, keep, family):
+    """The runs of ``line`` outside a rate fit (``keep`` false) drawn hollow over it."""
+    x, y, keep = np.asarray(x, dtype=float), np.asarray(y, dtype=float), np.asarray(keep)
     if not keep.all():
         (hollow,) = ax.loglog(x[~keep], y[~keep], ls="none", marker=MARKERS[family],
                               mfc="white", color=line.get_color(),
                               zorder=line.get_zorder() + 1)
         hollow.set_gid(LEFT_OUT)
-    return rate
-
-
-LEFT_OUT = "left out of the fit"      # gid of the hollow markers of rate_series
 
 
 def legend_below(ax, ncols=1):
@@ -94,12 +100,8 @@ def para_error_panel(ax, df, x="spacetime_dofs"):
                         paper_rate(ex, fam, g.s.iloc[0], g.variant.fillna("").iloc[0]))
         else:
             (line,) = ax.loglog(g[x], g.error, marker=MARKERS[fam], label=FAMILY_LABELS[fam])
-            out = ~fit_mask(g.error, g.reference_error.max())
-            if out.any():
-                (hollow,) = ax.loglog(g[x][out], g.error[out], ls="none", marker=MARKERS[fam],
-                                      mfc="white", color=line.get_color(),
-                                      zorder=line.get_zorder() + 1)
-                hollow.set_gid(LEFT_OUT)
+            left_out_markers(ax, line, g[x], g.error,
+                             fit_mask(g.error, g.reference_error.max()), fam)
         if "eta" in g and g.eta.notna().any():
             rate = (f": {fit_rate(g[x], g.eta):.3f}" if x == "spacetime_dofs" else "")
             ax.loglog(g[x], g.eta, ls=":", marker=".", color="k",
