@@ -416,7 +416,7 @@ def test_pipeline_cost_sums_the_jobs_of_all_and_reads_gnu_time(tmp_path):
     for rel, s, rss in [("ex1/a.tsv", 30.0, 100.0), ("para/b.tsv", 90.0, 300.0),
                         ("stability.tsv", 1000.0, 5000.0), ("ex1/old.tsv", 475.0, 4000.0)]:
         (bench / rel).parent.mkdir(parents=True, exist_ok=True)
-        (bench / rel).write_text(f"s\tmax_rss\n{s}\t{rss}\n")
+        (bench / rel).write_text(f"s\tmax_rss\tcpu_time\n{s}\t{rss}\t{0.8 * s}\n")
     log = tmp_path / "time.log"
     log.write_text("\tCommand being timed: \"snakemake --cores 2\"\n"
                    "\tElapsed (wall clock) time (h:mm:ss or m:ss): 1:02:03\n"
@@ -426,7 +426,8 @@ def test_pipeline_cost_sums_the_jobs_of_all_and_reads_gnu_time(tmp_path):
     text = (tmp_path / "pipeline-cost.md").read_text()
     assert "1 h 02 min 03 s wall time" in text and "2.00 GiB" in text
     assert "sum to 2 minutes" in text
-    assert re.search(r"total of `all`\s+\|\s+2 \|\s+120\.0 \|\s+300\.0", text)
+    assert re.search(r"total of `all`\s+\|\s+2 \|\s+120\.0 \|\s+96\.0 \|\s+300\.0", text)
+    assert "1 thread per job" in text        # config.yaml's job_threads
     assert re.search(r"not in `all`\s+\|\s+2 \|\s+1475\.0", text)
     log.write_text("\tElapsed (wall clock) time (h:mm:ss or m:ss): 2:03.45\n"
                    "\tMaximum resident set size (kbytes): 1024\n")
@@ -544,3 +545,22 @@ def test_results_page_names_one_file_per_problem_of_each_list(tmp_path):
     (tmp_path / "extra-ex5-algorithm-c.png").unlink()
     with pytest.raises(FileNotFoundError, match="extra-ex5-algorithm-c.png is missing"):
         page.render(tmp_path, ["ex5"], ["ex4-u1", "ex5"])
+
+
+def test_pipeline_cost_states_the_machine_speed_of_the_day(tmp_path):
+    """--assembly: the day's finest assembly time beside the committed benchmark's, and
+    their ratio; a level the committed benchmark lacks is refused."""
+    cost = script("pipeline_cost")
+    committed = tmp_path / "committed.csv"
+    pd.DataFrame({"level": [5, 6], "dofs": [1985, 8065], "threads": [2, 2],
+                  "assembly_s": [1.0, 8.0]}).to_csv(committed, index=False)
+    day = tmp_path / "day.csv"
+    pd.DataFrame({"level": [6], "dofs": [8065], "threads": [2],
+                  "assembly_s": [12.0]}).to_csv(day, index=False)
+    note = cost.speed_note(day, committed)
+    assert "level 6 (8,065 DOFs, 2 threads) in 12.00 s" in note
+    assert "took 8.00 s" in note and "1.50× as long" in note
+    pd.DataFrame({"level": [7], "dofs": [1], "threads": [2],
+                  "assembly_s": [1.0]}).to_csv(day, index=False)
+    with pytest.raises(SystemExit, match="level 7"):
+        cost.speed_note(day, committed)

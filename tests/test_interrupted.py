@@ -67,7 +67,7 @@ def check_results_intact(tmp_path):
 def test_interrupted_pipeline_restarts_cleanly(tmp_path, sig):
     cmd = setup_workdir(tmp_path)
     proc = start(cmd)
-    wait_for_rows(tmp_path, 3, proc)             # one job runs at a time (threads: 2)
+    wait_for_rows(tmp_path, 3, proc)             # two jobs run at once (job_threads: 1)
     os.killpg(proc.pid, sig)                     # the scheduler and its running job
     proc.wait(timeout=60)
     wait_group_gone(proc.pid)

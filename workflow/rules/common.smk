@@ -58,7 +58,7 @@ for _block in ("example1", "example2", "example3"):   # Example 1: the extrapola
 
 def _science(cfg):
     return {k: v for k, v in cfg.items()
-            if k not in ("output_root", "results_dir", "tier", "tiers")}
+            if k not in ("output_root", "results_dir", "tier", "tiers", "job_threads")}
 
 
 def _fingerprint(cfg):
@@ -91,6 +91,9 @@ if OUT in _COMMITTED:
         logger.info(f"config differs from {_files}: figures go to {OUT}")
 
 TIER = config.get("tier", "default")
+# threads of every job that computes (numba's parallel loops); 1 packs two jobs onto two
+# cores, which the default tier's many minute-long jobs prefer (pipeline-cost.md)
+JOB_THREADS = config.get("job_threads", 2)
 
 
 def tier_table(p):

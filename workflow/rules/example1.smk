@@ -12,7 +12,7 @@ rule ex1_solve:
     params:
         grading=GRADING,
         quadrature=QUADRATURE,
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:
@@ -34,7 +34,7 @@ rule ex1_adaptive:
         max_steps=EX1["adaptive"]["max_steps"],
         quadrature=QUADRATURE,
         operator=EX1["adaptive"]["operator"],
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:
@@ -147,7 +147,7 @@ rule ex1_quadrature_check:
     params:
         grading=GRADING,
         quadrature=QUADRATURE,
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:

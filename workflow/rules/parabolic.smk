@@ -21,7 +21,7 @@ rule para_solve:
         tol=SOLVER["tol"],
         quadrature=PARA_QUADRATURE,
         operator=lambda w: PARA["reference"]["operator"] if w.family == "reference" else "dense",
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:
@@ -52,7 +52,7 @@ rule para_reference_operator:
         problem="|".join(PARA_PROBLEMS),
     params:
         quadrature=PARA_QUADRATURE,
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:
@@ -89,7 +89,7 @@ rule para_adaptive:
         # each pass that does not end the run; the job continues from it when started
         # again (a time limit, a lost machine), and removes it when done
         checkpoint=lambda wc: f"{RES}/para/{wc.problem}/adaptive/checkpoint.npz",
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:
@@ -114,7 +114,7 @@ rule para_reference_error:
         problem="|".join(PARA_PROBLEMS),
     params:
         quadrature=PARA_QUADRATURE,
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:
@@ -139,7 +139,7 @@ rule para_errors:
         problem="|".join(PARA_PROBLEMS),
     params:
         quadrature=PARA_QUADRATURE,
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:
@@ -357,7 +357,7 @@ rule para_reference_check:
         f"{RES}/logs/para/reference_check.log",
     benchmark:
         f"{RES}/benchmarks/para/reference_check.tsv"
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:
@@ -390,7 +390,7 @@ rule ex5_uniform_cause:
         f"{RES}/logs/para/ex5_uniform_cause.log",
     benchmark:
         f"{RES}/benchmarks/para/ex5_uniform_cause.tsv"
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:
@@ -431,7 +431,7 @@ rule para_time_split:
         f"{RES}/logs/para/{{problem}}_time_split.log",
     benchmark:
         f"{RES}/benchmarks/para/{{problem}}_time_split.tsv"
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:

@@ -20,7 +20,7 @@ rule vi_solve:
         tol=SOLVER["tol"],
         maxiter=SOLVER["maxiter"],
         quadrature=QUADRATURE,
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:
@@ -184,7 +184,7 @@ rule vi_adaptive:
         quadrature=QUADRATURE,
         operator=config["vi_adaptive"]["operator"],
         family="adaptive",
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:
@@ -218,7 +218,7 @@ rule vi_adaptive_large:
         quadrature=QUADRATURE,
         operator="auto",
         family="adaptive-large",
-    threads: 2
+    threads: JOB_THREADS
     conda:
         ENV
     script:

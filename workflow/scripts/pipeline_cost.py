@@ -8,9 +8,13 @@ file).  The elliptic part is Examples 1–3 and the assembly benchmark, the para
 part Examples 4–5; figures and tables are the jobs that only read results.  The total
 counts the jobs of `all` only (a dry run with --forceall lists their benchmark files; the
 configuration is --configfile's): files of other targets or of earlier configurations
-are listed as "not in `all`".  With `--cores 2` and two threads per job the jobs run one
-after another, so the sum of job seconds is close to the pipeline's wall time, which
-`/usr/bin/time -v` measures (--time-log).
+are listed as "not in `all`".  With `--cores 2` and the configuration's `job_threads: 1`
+two jobs run at once, so the pipeline's wall time, which `/usr/bin/time -v` measures
+(--time-log), is close to half the sum of job seconds.
+
+--assembly: the CSV of `benchmarks/bench_assembly.py` run on the same machine the same day,
+so that a reader can scale the times to another day's speed of a shared machine (its
+finest level's assembly seconds are stated beside the committed benchmark's).
 
 --time-log: the stderr of `/usr/bin/time -v snakemake --cores 2` (a run from an empty
 results directory): its wall time and its largest process's peak memory are stated above
@@ -63,7 +67,32 @@ def gnu_time(path):
     return wall, rss
 
 
-def main(results, out, time_log=None, configfile=None, in_all=None):
+def job_threads(configfile=None):
+    """The run's job_threads: config.yaml's, or --configfile's over it."""
+    import yaml
+    root = Path(__file__).resolve().parents[2]
+    threads = yaml.safe_load((root / "config.yaml").read_text()).get("job_threads", 2)
+    if configfile:
+        threads = (yaml.safe_load(Path(configfile).read_text()) or {}).get("job_threads",
+                                                                           threads)
+    return int(threads)
+
+
+def speed_note(assembly_csv, committed="paper-figures/benchmark-assembly.csv"):
+    """One sentence: the finest level's assembly seconds of the day's benchmark and of the
+    committed one."""
+    day = pd.read_csv(assembly_csv).sort_values("level").iloc[-1]
+    ref = pd.read_csv(committed)
+    ref = ref[ref.level == day.level]
+    if ref.empty:
+        raise SystemExit(f"--assembly {assembly_csv}: level {day.level} is not in {committed}")
+    return (f"The same day, `benchmarks/bench_assembly.py` assembled level {int(day.level)} "
+            f"({int(day.dofs):,} DOFs, {int(day.threads)} threads) in {day.assembly_s:.2f} s; "
+            f"the committed `benchmark-assembly.md` took {ref.assembly_s.iloc[0]:.2f} s: the "
+            f"machine ran {day.assembly_s / ref.assembly_s.iloc[0]:.2f}× as long that day.\n\n")
+
+
+def main(results, out, time_log=None, configfile=None, in_all=None, assembly=None):
     """in_all: the benchmark files of `all`'s jobs (default: benchmarks_of_all of the
     configuration configfile)."""
     wall = gnu_time(time_log) if time_log else None
@@ -74,30 +103,41 @@ def main(results, out, time_log=None, configfile=None, in_all=None):
         part = PARTS.get(rel.parts[0], "other") if str(rel) in in_all else "not in `all`"
         d = pd.read_csv(f, sep="\t")
         rows.append({"part": part, "job": str(rel), "seconds": float(d.s.iloc[0]),
+                     "cpu_seconds": float(d.cpu_time.iloc[0]),
                      "max_rss_mb": float(d.max_rss.iloc[0])})
     if not rows:
         raise SystemExit(f"no benchmark files under {Path(results, 'benchmarks')}: "
                          "run the pipeline first")
     df = pd.DataFrame(rows)
     summary = df.groupby("part").agg(jobs=("job", "size"), seconds=("seconds", "sum"),
+                                     cpu_seconds=("cpu_seconds", "sum"),
                                      peak_rss_mb=("max_rss_mb", "max")).reset_index()
     of_all = df[df.part != "not in `all`"]
     total_s = of_all.seconds.sum()
     summary = pd.concat([summary, pd.DataFrame([{
         "part": "total of `all`", "jobs": len(of_all), "seconds": total_s,
+        "cpu_seconds": of_all.cpu_seconds.sum(),
         "peak_rss_mb": of_all.max_rss_mb.max()}])], ignore_index=True)
     heavy = df.sort_values("seconds", ascending=False).head(8)
     head = ""
+    threads = job_threads(configfile)
     if wall is not None:
         head = (f"The last run from an empty results directory took {_hms(wall[0])} wall time; "
                 f"its largest process peaked at {wall[1] / 1024:.2f} GiB resident "
-                "(`/usr/bin/time -v snakemake --cores 2`).\n\n")
+                "(`/usr/bin/time -v snakemake --cores 2"
+                + (f" --configfile {configfile}" if configfile else "")
+                + f"`, {threads} thread{'s' if threads > 1 else ''} per job).\n\n")
+    if assembly is not None:
+        head += speed_note(assembly)
     text = (head + "Per-job benchmarks of the last pipeline run (`results/benchmarks/`), summed by "
             f"part; peak_rss is the largest single job. The jobs of `all` sum to {total_s / 60:.0f} "
-            "minutes.\n\n"
+            "minutes"
+            + (f"; two at a time on two cores, half of that is {total_s / 120:.0f} minutes"
+               if threads == 1 else "") + ".\n\n"
             + summary.to_markdown(index=False, floatfmt=".1f")
             + "\n\nThe most expensive jobs:\n\n"
-            + heavy.to_markdown(index=False, floatfmt=".1f") + "\n")
+            + heavy.drop(columns="cpu_seconds").to_markdown(index=False, floatfmt=".1f")
+            + "\n")
     Path(out, "pipeline-cost.md").write_text(text)
     print(text)
 
@@ -115,5 +155,7 @@ if __name__ == "__main__":
                     help="stderr of /usr/bin/time -v snakemake --cores 2 (a run from scratch)")
     ap.add_argument("--configfile", default=None,
                     help="the run's --configfile, if any (which jobs `all` has)")
+    ap.add_argument("--assembly", default=None,
+                    help="CSV of benchmarks/bench_assembly.py run the same day (machine speed)")
     a = ap.parse_args()
-    main(a.results, a.out, a.time_log, a.configfile)
+    main(a.results, a.out, a.time_log, a.configfile, assembly=a.assembly)

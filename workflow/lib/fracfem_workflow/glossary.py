@@ -259,6 +259,8 @@ GROUPS = [
         "jobs": "jobs of the part",
         "job": "a job's benchmark file under `results/benchmarks/`",
         "max_rss_mb": "peak resident memory of the job, MiB",
+        "cpu_seconds": "CPU seconds of the part's jobs, summed (Snakemake samples a job's "
+                       "CPU time every 30 s: a job of a few seconds counts little or nothing)",
         "peak_rss_mb": "peak resident memory, MiB: the largest job of the part; benchmarks: "
                        "the case's process",
         "level": "the mesh `disk_uniform(level)` (`vi_compressed.md`: T_H)",
