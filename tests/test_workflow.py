@@ -90,12 +90,15 @@ def test_parabolic_figure_runs_only_its_jobs(tmp_path):
                       "--", f"{tmp_path}/o/fig13-ex4-error.png")
     jobs = job_counts(text)
     # Figure 13: Example 4 (both initial values): series, the reference's family (and the
-    # reference's operator, once per problem), Algorithm C, errors
+    # reference's operator, once: both have s = 1/2 and the same reference mesh),
+    # Algorithm C, errors
     assert set(jobs) == {"para_solve", "para_reference_solve", "para_reference_operator",
                          "para_adaptive", "para_reference_error", "para_errors",
                          "fig_para_error"}
     assert jobs["para_adaptive"] == 2 and jobs["para_errors"] == 2
-    assert jobs["para_reference_operator"] == 2 and jobs["para_reference_error"] == 2
+    assert jobs["para_reference_operator"] == 1 and jobs["para_reference_error"] == 2
+    assert "ex4-u1/reference-operator.pkl" in text
+    assert "ex4-u2/reference-operator.pkl" not in text
     assert "ex5" not in text and "ex1_solve" not in text and "vi_solve" not in text
 
 

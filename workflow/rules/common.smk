@@ -344,6 +344,21 @@ def para_reference(wildcards):
     return fresh
 
 
+def para_operator_owner(problem):
+    """The problem whose reference operator `problem`'s jobs read: the first parabolic
+    problem with the same order s and reference mesh (Example 4's two initial values share
+    one, assembled once; runs.load_reference_operator checks mesh, s and quadrature)."""
+    def key(p):
+        return PARA["examples"][p].get("s"), para_reference_tag(p)
+    return next(p for p in PARA_PROBLEMS if key(p) == key(problem))
+
+
+def para_reference_operator(wildcards):
+    """The operator file of a parabolic problem's reference run (para_operator_owner)."""
+    return path(rules.para_reference_operator.output.pkl,
+                problem=para_operator_owner(wildcards.problem))
+
+
 def para_reference_row(wildcards):
     """The row (time, memory, size) of the reference run para_reference uses."""
     ref = para_reference(wildcards)

@@ -37,8 +37,9 @@ use rule para_solve as para_reference_solve with:
         family="reference",
 
 
-# The reference's operator, assembled once (most of a minute at the default tier's size)
-# for the four jobs below that measure runs against it; deleted when they are done
+# The reference's operator, assembled once (minutes at the default tier's size) for the
+# jobs below that measure runs against it, of every problem with the same s and reference
+# mesh (para_operator_owner); deleted when they are done
 rule para_reference_operator:
     input:
         ref=para_reference,
@@ -62,7 +63,7 @@ rule para_reference_operator:
 rule para_adaptive:
     input:
         ref=para_reference,
-        operator=rules.para_reference_operator.output.pkl,
+        operator=para_reference_operator,
     output:
         table=f"{RES}/para/{{problem}}/adaptive/iterations.csv",
         npz=f"{RES}/para/{{problem}}/adaptive/meshes.npz",
@@ -101,7 +102,7 @@ rule para_adaptive:
 rule para_reference_error:
     input:
         ref=para_reference,
-        operator=rules.para_reference_operator.output.pkl,
+        operator=para_reference_operator,
         ref_row=para_reference_row,
         coarser=para_reference_coarser,
     output:
@@ -127,7 +128,7 @@ rule para_errors:
         rows=para_series_rows,
         npz=para_series_npz,
         ref=para_reference,
-        operator=rules.para_reference_operator.output.pkl,
+        operator=para_reference_operator,
         ref_error=rules.para_reference_error.output.csv,
     output:
         csv=f"{RES}/para/{{problem}}/errors.csv",
@@ -402,7 +403,7 @@ rule ex5_uniform_cause:
 rule para_time_split:
     input:
         ref=para_reference,
-        operator=rules.para_reference_operator.output.pkl,
+        operator=para_reference_operator,
         errors=rules.para_errors.output.csv,
     output:
         md=report(
