@@ -67,18 +67,20 @@ def gnu_time(path):
     return wall, rss
 
 
+ROOT = Path(__file__).resolve().parents[2]      # the project's checkout
+
+
 def job_threads(configfile=None):
     """The run's job_threads: config.yaml's, or --configfile's over it."""
     import yaml
-    root = Path(__file__).resolve().parents[2]
-    threads = yaml.safe_load((root / "config.yaml").read_text()).get("job_threads", 2)
+    threads = yaml.safe_load((ROOT / "config.yaml").read_text()).get("job_threads", 2)
     if configfile:
         threads = (yaml.safe_load(Path(configfile).read_text()) or {}).get("job_threads",
                                                                            threads)
     return int(threads)
 
 
-def speed_note(assembly_csv, committed="paper-figures/benchmark-assembly.csv"):
+def speed_note(assembly_csv, committed=ROOT / "paper-figures" / "benchmark-assembly.csv"):
     """One sentence: the finest level's assembly seconds of the day's benchmark and of the
     committed one."""
     day = pd.read_csv(assembly_csv).sort_values("level").iloc[-1]
