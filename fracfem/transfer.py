@@ -16,7 +16,8 @@ from .assembly import mesh_arrays
 from .meshes import validates
 
 __all__ = ["locate", "interpolation_matrix", "interpolate", "interpolate_at", "transfer",
-           "space_time_distance", "SpaceTimeReference"]
+           "space_time_distance", "SpaceTimeReference", "ReferenceFamily",
+           "extrapolated_distance"]
 
 
 def _element_maps(mesh):
@@ -208,45 +209,178 @@ class SpaceTimeReference:
         """‖I u − u_ref‖_{L²(0,T; a)}: u is interpolated onto the reference mesh
         (nodal interpolation, zero outside its mesh); the time integral is exact
         on the union of both time grids, which must cover the same interval."""
-        ta, tb = _contiguous("pieces", pieces), self.edges
-        tol = 1e-12 * max(abs(ta[-1]), abs(tb[-1]), 1e-300)
+        return float(_distances(pieces, [self])[0])
+
+
+def _distances(pieces, references) -> np.ndarray:
+    """‖I u − u_k‖ for every reference u_k of ``references`` (SpaceTimeReference objects
+    on one mesh with one matrix): one pass over the union of all time grids, A I u of
+    each piece of u formed once for all of them."""
+    first = references[0]
+    ta = _contiguous("pieces", pieces)
+    tol = 1e-12 * max([abs(ta[-1])] + [abs(r.edges[-1]) for r in references] + [1e-300])
+    for r in references:
+        tb = r.edges
         if abs(ta[0] - tb[0]) > tol or abs(ta[-1] - tb[-1]) > tol:
             raise ValueError(f"time intervals differ: [{ta[0]}, {ta[-1]}] vs "
                              f"[{tb[0]}, {tb[-1]}]")
-        # the pieces of each mesh, in time order (a slab's mesh, or a run's only one)
-        groups: dict = {}
-        for i, pc in enumerate(pieces):
-            groups.setdefault(id(pc[2]), []).append(i)
-        current: dict = {}
+    # the pieces of each mesh, in time order (a slab's mesh, or a run's only one)
+    groups: dict = {}
+    for i, pc in enumerate(pieces):
+        groups.setdefault(id(pc[2]), []).append(i)
+    current: dict = {}
 
-        def piece(i):                  # (I u_i, A I u_i) on the reference's free nodes
-            key = id(pieces[i][2])
-            if current.get("key") != key:   # a new mesh: its pieces' basis
-                idx = groups[key]
-                interp = interpolation_matrix(pieces[i][2], self.mesh.p)[self.free]
-                X = np.column_stack([np.asarray(pieces[k][3], dtype=float) for k in idx])
-                current.clear()
-                current.update(key=key, interp=interp,
-                               col={k: c for c, k in enumerate(idx)},
-                               span=_Span(X, interp, self._apply, self.rank_rtol))
-            v = current["interp"] @ np.asarray(pieces[i][3], dtype=float)
-            return v, current["span"].product(current["col"][i])
+    def piece(i):                  # (I u_i, A I u_i) on the reference's free nodes
+        key = id(pieces[i][2])
+        if current.get("key") != key:   # a new mesh: its pieces' basis
+            idx = groups[key]
+            interp = interpolation_matrix(pieces[i][2], first.mesh.p)[first.free]
+            X = np.column_stack([np.asarray(pieces[k][3], dtype=float) for k in idx])
+            current.clear()
+            current.update(key=key, interp=interp,
+                           col={k: c for c, k in enumerate(idx)},
+                           span=_Span(X, interp, first._apply, first.rank_rtol))
+        v = current["interp"] @ np.asarray(pieces[i][3], dtype=float)
+        return v, current["span"].product(current["col"][i])
 
-        grid = np.union1d(ta, tb)
-        grid = grid[np.concatenate([[True], np.diff(grid) > 1e-12 * max(1.0, abs(grid[-1]))])]
-        total = 0.0
-        last = last_ref = (None, None)
-        for a, b in zip(grid[:-1], grid[1:]):
-            mid = 0.5 * (a + b)
-            i = int(np.clip(np.searchsorted(ta, mid) - 1, 0, len(pieces) - 1))
-            j = int(np.clip(np.searchsorted(tb, mid) - 1, 0, len(self.values) - 1))
-            if last[0] != i:
-                last = (i, piece(i))
-            if last_ref[0] != j:       # Y c_j once per reference piece, not per interval
-                last_ref = (j, self._A_ref(j))
-            v, Av = last[1]
-            total += (b - a) * float((v - self.values[j]) @ (Av - last_ref[1]))
-        return float(np.sqrt(max(total, 0.0)))
+    grid = ta
+    for r in references:
+        grid = np.union1d(grid, r.edges)
+    grid = grid[np.concatenate([[True], np.diff(grid) > 1e-12 * max(1.0, abs(grid[-1]))])]
+    total = np.zeros(len(references))
+    last = (None, None)
+    last_ref = [(None, None)] * len(references)
+    for a, b in zip(grid[:-1], grid[1:]):
+        mid = 0.5 * (a + b)
+        i = int(np.clip(np.searchsorted(ta, mid) - 1, 0, len(pieces) - 1))
+        if last[0] != i:
+            last = (i, piece(i))
+        v, Av = last[1]
+        for k, r in enumerate(references):
+            j = int(np.clip(np.searchsorted(r.edges, mid) - 1, 0, len(r.values) - 1))
+            if last_ref[k][0] != j:    # Y c_j once per reference piece, not per interval
+                last_ref[k] = (j, r._A_ref(j))
+            total[k] += (b - a) * float((v - r.values[j]) @ (Av - last_ref[k][1]))
+    return np.sqrt(np.maximum(total, 0.0))
+
+
+class ReferenceFamily:
+    """Runs u₁, …, u_K of one family converging to the unknown u (coarsest first), to
+    measure another function's distance to u rather than to the finest run.
+
+    ``members``: K ≥ 3 lists of pieces (t0, t1, mesh, u), each list on one mesh;
+    ``A_ref``, ``free_ref``: the free-node matrix and free nodes of the finest member's
+    mesh, in whose a-norm every distance is taken (the coarser members are interpolated
+    onto it).  ``steps`` holds the distances d_k = ‖u_k − u_{k+1}‖ of consecutive
+    members, ``distances(pieces)`` those of a function to every member, and
+    ``error(pieces)`` the extrapolated distance to u (:func:`extrapolated_distance`)."""
+
+    def __init__(self, members, A_ref, free_ref, *, rank_rtol: float = RANK_RTOL):
+        if len(members) < 3:
+            raise ValueError(f"a reference family needs at least 3 members, got "
+                             f"{len(members)}")
+        fine = members[-1][0][2]
+        on_fine = []
+        self.meshes = []               # the space meshes of each member
+        for pcs in members:
+            self.meshes.append(list({id(pc[2]): pc[2] for pc in pcs}.values()))
+            _contiguous("member", pcs)
+            maps: dict = {}
+            moved = []
+            for t0, t1, mesh, u in pcs:
+                if mesh is fine:
+                    moved.append((t0, t1, fine, np.asarray(u, dtype=float)))
+                    continue
+                if id(mesh) not in maps:
+                    maps[id(mesh)] = interpolation_matrix(mesh, fine.p)
+                moved.append((t0, t1, fine, maps[id(mesh)] @ np.asarray(u, dtype=float)))
+            on_fine.append(moved)
+        self.references = [SpaceTimeReference(pcs, A_ref, free_ref, rank_rtol=rank_rtol)
+                           for pcs in on_fine]
+        self.steps = np.array([self.references[k + 1].distance(on_fine[k])
+                               for k in range(len(on_fine) - 1)])
+
+    @property
+    def matvecs(self) -> int:
+        return sum(r.matvecs for r in self.references)
+
+    def distances(self, pieces) -> np.ndarray:
+        """‖I u − u_k‖ for every member u_k (coarsest first), in one pass."""
+        return _distances(pieces, self.references)
+
+    def shared_members(self, pieces) -> list:
+        """The members with a space mesh of a piece of u (equal nodes and triangles)."""
+        own = list({id(pc[2]): pc[2] for pc in pieces}.values())
+        return [k for k, ms in enumerate(self.meshes)
+                if any(_same_mesh(a, b) for a in own for b in ms)]
+
+    def error(self, pieces, *, leave_out_shared: bool = True) -> dict:
+        """The distances to the members and :func:`extrapolated_distance` of them.  With
+        ``leave_out_shared``, a member on the space mesh of a piece of u is left out of
+        the extrapolation (``left_out``): u's error shares that member's space error, so
+        its angle with it is not that with the others'."""
+        d = self.distances(pieces)
+        shared = self.shared_members(pieces) if leave_out_shared else []
+        return {"distances": d, "left_out": shared,
+                **extrapolated_distance(d, self.steps, exclude=shared)}
+
+
+def _same_mesh(a, b) -> bool:
+    return a is b or (a.p.shape == b.p.shape and a.t.shape == b.t.shape
+                      and np.array_equal(a.p, b.p) and np.array_equal(a.t, b.t))
+
+
+def _extrapolate_squares(nodes, squares) -> float:
+    """The value at x = 0 of the parabola through (x_k, e_k²) (three points)."""
+    total = 0.0
+    for k in range(len(nodes)):
+        w = np.prod([nodes[j] / (nodes[j] - nodes[k]) for j in range(len(nodes)) if j != k])
+        total += w * squares[k]
+    return float(total)
+
+
+def extrapolated_distance(distances, steps, exclude=()) -> dict:
+    """The distance ‖v − u‖ of a function v to the limit u of a family u₁, …, u_K, from
+    its distances e_k = ‖v − u_k‖ to the members and the family's steps
+    d_k = ‖u_k − u_{k+1}‖ (coarsest first; K ≥ 3).
+
+    e_k² = ‖v − u‖² − 2⟨v − u, u_k − u⟩ + ‖u_k − u‖².  If the members' errors decrease
+    geometrically, ‖u_k − u‖ = κ x_k with x_k = d_k (the finest: x_K = d_{K−1}²/d_{K−2}),
+    and v's error keeps its angle with theirs, e_k² is a parabola in x_k: its value at
+    x = 0 through the three finest members is the estimate.  The model needs no
+    alignment of the members' errors with one another, only that the family be
+    asymptotic.  ``uncertainty`` is the change from the estimate through the three
+    members before, as a family's last step measures its finest member's error, and no
+    less than the correction to the distance to the finest member (K ≥ 4; NaN for K = 3).  Members in ``exclude`` (indices) are left out: the three finest and
+    the three before of those that remain.  Returns {'error', 'uncertainty', 'ratio'}
+    (ratio: the family's last d_{K−1}/d_{K−2}); an extrapolated e² ≤ 0 gives error NaN,
+    fewer than three members left give NaN for both."""
+    e = np.asarray(distances, dtype=float)
+    d = np.asarray(steps, dtype=float)
+    K = e.size
+    if K < 3 or d.size != K - 1:
+        raise ValueError(f"need distances to K >= 3 members and K - 1 steps, got "
+                         f"{e.size} distances and {d.size} steps")
+    if not (np.all(np.isfinite(d)) and np.all(d > 0) and np.all(np.isfinite(e))):
+        raise ValueError(f"distances {e} and steps {d} must be finite, steps positive")
+    ratios = d[1:] / d[:-1]
+    if not np.all(ratios < 1.0):
+        raise RuntimeError(f"the family does not converge: steps {d} (ratios {ratios})")
+    x = np.append(d, d[-1] ** 2 / d[-2])
+    kept = [k for k in range(K) if k not in set(int(j) for j in exclude)]
+
+    def estimate(idx):
+        if len(idx) < 3:
+            return float("nan")
+        sq = _extrapolate_squares(x[idx], e[idx] ** 2)
+        return float(np.sqrt(sq)) if sq > 0 else float("nan")
+
+    err = estimate(kept[-3:])
+    # the change from the estimate before, and no less than the correction it makes to
+    # the distance to the finest member left in (a correction is not trusted beyond its size)
+    unc = (max(abs(err - estimate(kept[-4:-1])), abs(err - e[kept[-1]]))
+           if len(kept) >= 4 else float("nan"))
+    return {"error": err, "uncertainty": unc, "ratio": float(ratios[-1])}
 
 
 def space_time_distance(pieces, reference, A_ref, free_ref) -> float:

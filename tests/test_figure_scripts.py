@@ -301,6 +301,27 @@ def test_algorithm_c_passes_are_judged_by_the_reference_alone(tmp_path, captured
     assert hollow.get_xdata().tolist() == runs.t_wall[2:].tolist()
 
 
+def test_algorithm_c_passes_are_judged_by_their_own_uncertainty(tmp_path):
+    """Errors extrapolated to the limit of the reference's family: each pass enters a fit
+    by its own measured uncertainty, and by the reference run's error where none is
+    measured (report.with_fit_bound); the page says which error it shows."""
+    passes = script("para_passes")
+    runs, iterations, ref = algorithm_c_run(tmp_path, reference_error=0.07)
+    runs = runs.assign(error_uncertainty=[0.01, 0.2, 0.01, np.nan],
+                       error_vs_reference=0.9 * runs.error)
+    runs.to_csv(iterations, index=False)
+    d = passes.passes(iterations, ref)
+    np.testing.assert_allclose(d.reference_error, [0.01, 0.2, 0.01, 0.07])
+    assert (d.reference_run_error == 0.07).all()
+    table = passes.pass_table(d)
+    # errors 0.5, 0.266, 0.190, 0.106 against 3× 0.01, 0.2, 0.01, 0.07
+    assert table["in fit"].tolist() == ["yes", "no", "yes", "no"]
+    np.testing.assert_allclose(table.error_vs_reference, 0.9 * runs.error)
+    assert passes.algorithm_c_table(d).iloc[0]["fitted"] == 2
+    text = passes.page(d)
+    assert "its measured uncertainty" in text and "own error 0.07 " in text
+
+
 def test_algorithm_c_passes_refuse_another_table(tmp_path):
     passes = script("para_passes")
     runs, iterations, ref = algorithm_c_run(tmp_path, reference_error=0.05)

@@ -141,3 +141,102 @@ def test_transfer_is_exact_for_p1_on_a_refinement_and_zero_outside():
     assert el[0] == -1                                     # outside the disk
     u = transfer(coarse, lin(coarse.p), fine)
     assert np.all(u[fine.boundary_nodes()] == 0.0)
+
+
+def _a_orthonormal(vectors, A):
+    """Gram–Schmidt in the inner product x·A y."""
+    out = []
+    for v in vectors:
+        for q in out:
+            v = v - (q @ A @ v) * q
+        out.append(v / np.sqrt(v @ A @ v))
+    return out
+
+
+def test_reference_family_recovers_the_distance_to_the_limit_of_an_asymptotic_family():
+    """u_k = r^k (w + z_k), limit 0: the members' errors are not aligned with one another
+    (z_k mutually a-orthogonal), but ‖u_k‖ ∝ r^k and v's angle with them stays fixed; the
+    extrapolated distance is ‖v‖ to round-off, while the finest member is off by more."""
+    from fracfem import discretise
+    from fracfem.transfer import ReferenceFamily
+
+    mesh = disk_uniform(2)
+    disc = discretise(mesh, 0.5)
+    A = disc.A
+    rng = np.random.default_rng(7)
+    w, z1, z2, z3, z4, y = _a_orthonormal(
+        [rng.standard_normal(len(disc.free)) for _ in range(6)], A)
+    v = 0.3 * w + 0.8 * y                        # a-orthogonal to every z_k
+    r = 0.6
+    members = [[(0.0, 1.0, mesh, disc.extend(r ** k * (0.7 * w + 0.5 * z)))]
+               for k, z in enumerate((z1, z2, z3, z4), start=1)]
+    fam = ReferenceFamily(members, A, disc.free)
+    exact = np.sqrt(v @ A @ v)
+    out = fam.error([(0.0, 1.0, mesh, disc.extend(v))], leave_out_shared=False)
+    assert fam.steps[1] / fam.steps[0] == pytest.approx(r, rel=1e-12)
+    assert out["error"] == pytest.approx(exact, rel=1e-10)
+    # the two extrapolations agree: the uncertainty is the correction to the finest distance
+    assert abs(out["distances"][-1] - exact) > 1e-3 * exact
+    assert out["uncertainty"] == pytest.approx(abs(out["distances"][-1] - exact), rel=1e-8)
+    # three members: the same estimate, no uncertainty
+    three = ReferenceFamily(members[1:], A, disc.free).error(
+        [(0.0, 1.0, mesh, disc.extend(v))], leave_out_shared=False)
+    assert three["error"] == pytest.approx(exact, rel=1e-10) and np.isnan(three["uncertainty"])
+    # v on the members' own mesh: by default every member is left out, nothing measured
+    shared = fam.error([(0.0, 1.0, mesh, disc.extend(v))])
+    assert shared["left_out"] == [0, 1, 2, 3] and np.isnan(shared["error"])
+
+
+def test_reference_family_distances_match_one_reference_per_member():
+    """The one-pass distances to every member equal SpaceTimeReference's, one member at a
+    time, measured on the finest member's mesh (coarser members interpolated onto it)."""
+    from fracfem import discretise
+    from fracfem.transfer import ReferenceFamily, SpaceTimeReference
+
+    fine, mid, coarse = disk_uniform(3), disk_uniform(2), disk_uniform(1)
+    disc = discretise(fine, 0.5)
+    rng = np.random.default_rng(5)
+
+    def run(mesh, edges):
+        vals = [rng.standard_normal(mesh.p.shape[1]) for _ in edges[1:]]
+        for x in vals:
+            x[mesh.boundary_nodes()] = 0.0
+        return [(a, b, mesh, x) for a, b, x in zip(edges[:-1], edges[1:], vals)]
+
+    members = [run(coarse, [0, 0.5, 1]), run(mid, [0, 0.3, 0.6, 1]),
+               run(fine, np.linspace(0, 1, 6))]
+    fam = ReferenceFamily(members, disc.A, disc.free)
+    pieces = run(mid, [0, 0.25, 0.7, 1])
+    # the run on the middle member's mesh (a copy of it): that member is left out
+    assert fam.shared_members(pieces) == [1]
+    copy = type(mid)(mid.p.copy(), mid.t.copy())
+    assert fam.shared_members([(a, b, copy, x) for a, b, _, x in pieces]) == [1]
+    assert fam.shared_members(run(coarse, [0, 1])) == [0]
+    assert fam.shared_members(run(refine_disk(mid, [0]), [0, 1])) == []
+    for k, m in enumerate(members):
+        on_fine = [(a, b, fine, interpolate(mm, x, fine)) for a, b, mm, x in m]
+        one = SpaceTimeReference(on_fine, disc.A, disc.free)
+        assert fam.distances(pieces)[k] == pytest.approx(one.distance(pieces), rel=1e-10)
+        if k:
+            assert fam.steps[k - 1] == pytest.approx(
+                one.distance([(a, b, fine, interpolate(mm, x, fine))
+                              for a, b, mm, x in members[k - 1]]), rel=1e-10)
+
+
+def test_extrapolated_distance_refuses_families_that_do_not_converge():
+    from fracfem.transfer import extrapolated_distance
+
+    with pytest.raises(RuntimeError, match="does not converge"):
+        extrapolated_distance([0.3, 0.2, 0.1], [0.1, 0.12])
+    with pytest.raises(ValueError, match="K >= 3"):
+        extrapolated_distance([0.3, 0.2], [0.1])
+    # a distance that the family's limit cannot have (e² < 0 at x = 0): no estimate
+    assert np.isnan(extrapolated_distance([0.9, 0.5, 0.1], [0.5, 0.25])["error"])
+    # a member left out: the three that remain, without uncertainty; two left: nothing
+    e, d = [0.5, 0.4, 0.35, 0.33], [0.2, 0.1, 0.05]
+    kept = extrapolated_distance(e, d, exclude=[2])
+    x = np.array([0.2, 0.1, 0.05 ** 2 / 0.1])       # members 0, 1, 3: x_k = d_k, d_3²/d_2
+    expected = np.sqrt(np.polyfit(x, np.array([0.5, 0.4, 0.33]) ** 2, 2)[-1])
+    assert kept["error"] == pytest.approx(expected, rel=1e-12)
+    assert np.isnan(kept["uncertainty"])
+    assert np.isnan(extrapolated_distance(e, d, exclude=[0, 1])["error"])

@@ -366,7 +366,7 @@ def para_reference_row(wildcards):
 
 
 def para_reference_coarser(wildcards):
-    """The two coarser runs of the reference's family (coarsest first)."""
+    """The coarser runs of the reference's family (coarsest first)."""
     return [path(rules.para_solve.output.npz, problem=wildcards.problem, family="reference",
                  tag=series_tag("graded", h))
             for h in para_reference_h(wildcards.problem)[1]]

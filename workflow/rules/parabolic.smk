@@ -64,6 +64,7 @@ rule para_adaptive:
     input:
         ref=para_reference,
         operator=para_reference_operator,
+        coarser=para_reference_coarser,
     output:
         table=f"{RES}/para/{{problem}}/adaptive/iterations.csv",
         npz=f"{RES}/para/{{problem}}/adaptive/meshes.npz",
@@ -104,7 +105,7 @@ rule para_reference_error:
         ref=para_reference,
         operator=para_reference_operator,
         ref_row=para_reference_row,
-        coarser=para_reference_coarser,
+        coarser=lambda w: para_reference_coarser(w)[-2:],   # the last two measure its error
     output:
         csv=f"{RES}/para/{{problem}}/reference-error.csv",
     log:
@@ -129,6 +130,7 @@ rule para_errors:
         npz=para_series_npz,
         ref=para_reference,
         operator=para_reference_operator,
+        coarser=para_reference_coarser,
         ref_error=rules.para_reference_error.output.csv,
     output:
         csv=f"{RES}/para/{{problem}}/errors.csv",
@@ -383,7 +385,7 @@ rule ex5_uniform_cause:
         grading=GRADING,
         uniform_levels=PARA["uniform_levels"],
         uniform_tau_factor=PARA["tau_factor"]["uniform"],
-        family_h=PARA["reference"]["check_h"],
+        family_h=PARA["reference"]["check_h"][-3:],
         reference_tau_factor=PARA["reference"]["tau_factor"],
         tol=SOLVER["tol"],
         quadrature=PARA_QUADRATURE,
@@ -404,6 +406,7 @@ rule para_time_split:
     input:
         ref=para_reference,
         operator=para_reference_operator,
+        coarser=para_reference_coarser,
         errors=rules.para_errors.output.csv,
     output:
         md=report(

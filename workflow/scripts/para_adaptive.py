@@ -17,7 +17,7 @@ import fracfem as ff
 from fracfem_workflow.io import (atomic_path, peak_memory_mb, provenance, save_arrays,
                                  with_provenance, write_table)
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.runs import parameter_columns, start, stored_reference
+from fracfem_workflow.runs import family_error, parameter_columns, start, stored_family
 
 logger = script_logger("para_adaptive")
 
@@ -92,9 +92,11 @@ def load_checkpoint(path, key, max_spacetime_dofs, max_iterations):
 
 def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
          max_iterations, figure_iterations, output_times, tol, quadrature, ref, table, npz,
-         log=None, threads=None, operator="dense", ref_operator=None, checkpoint=None):
+         log=None, threads=None, operator="dense", ref_operator=None, checkpoint=None,
+         coarser=()):
     """problem: the run's name; example, data: fracfem.example(example, **data); ref: the
-    reference run the errors are measured against; operator: each slab's stiffness
+    reference run the errors are measured against, coarser: the coarser runs of its family
+    (coarsest first; the error is the distance to the family's limit, runs.family_error); operator: each slab's stiffness
     ('dense', 'compressed', 'auto'); ref_operator: the reference's operator, saved by
     para_reference_operator (None: assembled here); checkpoint: the file each pass that
     does not end the run is saved to, and continued from when the job starts again
@@ -107,7 +109,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         problem=problem, example=example, data=data, T=T, theta=theta,
         start_level=start_level, c_tau=c_tau, figure_iterations=sorted(figure_iterations),
         output_times=list(output_times), tol=tol, quadrature=quadrature, operator=operator,
-        ref=file_digest(ref))
+        ref=file_digest(ref), coarser=[file_digest(c) for c in coarser])
     state = (None if checkpoint is None else
              load_checkpoint(checkpoint, key, max_spacetime_dofs, max_iterations))
     slabs, first, rows, arrays, elapsed, t_done_eval, invocation = (
@@ -115,7 +117,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     if slabs is not None:
         log_next_pass(first, slabs, ex.s, c_tau)
     t0 = time.perf_counter()
-    reference, s = stored_reference(ref, quad, ref_operator)
+    reference, s = stored_family(ref, list(coarser), quad, ref_operator)
     t_ref = time.perf_counter() - t0
     t_start = time.perf_counter() - elapsed     # all invocations' passes count
     keep = {int(k) for k in figure_iterations}
@@ -124,7 +126,8 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
 
     def record(rec):
         t0 = time.perf_counter()
-        err = reference.distance(rec.pieces)
+        measured = family_error(reference, rec.pieces)
+        err = measured["error"]
         t_eval[0] += time.perf_counter() - t0
         rec.pieces = None                          # the steps are not needed any more
         rows.append({
@@ -133,7 +136,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
             "family": "adaptive", "tag": f"it{rec.iteration}", "s": s,
             "dofs": max(sl.n_free for sl in rec.slabs), "slabs": len(rec.slabs),
             "steps": int(sum(sl.n_steps for sl in rec.slabs)),
-            "spacetime_dofs": rec.dofs, "error": err, "eta": rec.eta,
+            "spacetime_dofs": rec.dofs, **measured, "eta": rec.eta,
             **{f"eta2_{k}": v for k, v in rec.eta_parts.items()},
             # the time term with the energy norm instead of its h^{−2s}‖·‖_{L²} proxy
             "eta2_time_anorm": float(np.sum(rec.steps["time_anorm"])),
@@ -208,4 +211,5 @@ if __name__ == "__main__":
          snakemake.params.tol, snakemake.params.quadrature, snakemake.input.ref,  # noqa: F821
          snakemake.output.table, snakemake.output.npz, snakemake.log[0],  # noqa: F821
          snakemake.threads, snakemake.params.operator,  # noqa: F821
-         snakemake.input.operator, snakemake.params.checkpoint)  # noqa: F821
+         snakemake.input.operator, snakemake.params.checkpoint,  # noqa: F821
+         list(snakemake.input.coarser))  # noqa: F821

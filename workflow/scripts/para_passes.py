@@ -10,7 +10,7 @@ from fracfem_workflow.logs import log_to, script_logger
 from fracfem_workflow.plotstyle import (ERROR_LABELS, SPACETIME_DOFS, legend_below,
                                         para_error_panel, plt, problem_title, save)
 from fracfem_workflow.report import (REFERENCE_MARGIN, algorithm_c_table, fit_mask,
-                                     local_slopes)
+                                     local_slopes, with_fit_bound)
 
 logger = script_logger("para_passes")
 
@@ -29,7 +29,7 @@ def passes(iterations, reference):
         raise ValueError(f"{iterations}: not a table of Algorithm C's passes "
                          f"(missing columns {missing}, families {families})")
     d = d.sort_values("spacetime_dofs", ignore_index=True)
-    return d.assign(**{c: ref[c] for c in REFERENCE})
+    return with_fit_bound(d.assign(**{c: ref[c] for c in REFERENCE}))
 
 
 def pass_table(d):
@@ -41,10 +41,13 @@ def pass_table(d):
     table = pd.DataFrame({
         "pass": d.tag.str.removeprefix("it").astype(int), "slabs": d.slabs,
         "steps": d.steps, "dofs": d.dofs, "spacetime_dofs": d.spacetime_dofs,
-        "eta": d.eta, "error": d.error, "efficiency": d.eta / d.error,
+        "eta": d.eta, "error": d.error, "reference_error": d.reference_error,
+        "efficiency": d.eta / d.error,
         "error / reference_error": d.error / d.reference_error,
-        "in fit": np.where(fit_mask(d.error, d.reference_error.iloc[0]), "yes", "no"),
+        "in fit": np.where(fit_mask(d.error, d.reference_error), "yes", "no"),
         "local slope": slope(d.error), "local slope η": slope(d.eta)})
+    if "error_vs_reference" in d:
+        table.insert(7, "error_vs_reference", d.error_vs_reference)
     for col in ("t_total", "t_wall"):
         if col in d:
             table[col] = d[col]
@@ -71,14 +74,28 @@ def figure(d, png):
 
 def page(d):
     ref = d.iloc[0]
-    return ("Algorithm C pass by pass: error measured against the reference run "
-            f"({int(ref.reference_spacetime_dofs):,} space-time DOFs), whose own error "
-            f"{ref.reference_error:.4g} is measured from its family's two coarser runs "
-            f"(d12 = {ref.reference_d12:.4g}, d23 = {ref.reference_d23:.4g}, "
-            f"r = {ref.reference_ratio:.3g}). A pass enters a rate fit only if its error "
-            f"exceeds {REFERENCE_MARGIN:g}× that (`in fit`); at or below that bound the "
-            "measured error is as much the reference's as the pass's, and its local slope "
-            "says nothing.\n\n"
+    if "error_vs_reference" in d and d.error_uncertainty.notna().any():
+        how = ("Algorithm C pass by pass: `error` is the distance to the limit of the "
+               "reference's family, extrapolated from the distances to its runs "
+               f"(the finest: {int(ref.reference_spacetime_dofs):,} space-time DOFs; "
+               "fracfem.transfer.extrapolated_distance); `reference_error` is its measured "
+               "uncertainty, the change from the extrapolation through the family's coarser "
+               "runs; `error_vs_reference` is the distance to the finest run alone, whose own "
+               f"error {ref.reference_run_error:.4g} is measured from its family's two "
+               f"coarser runs (d12 = {ref.reference_d12:.4g}, d23 = "
+               f"{ref.reference_d23:.4g}, r = {ref.reference_ratio:.3g}). A pass enters a "
+               f"rate fit only if its error exceeds {REFERENCE_MARGIN:g}× its uncertainty "
+               "(`in fit`).")
+    else:
+        how = ("Algorithm C pass by pass: error measured against the reference run "
+               f"({int(ref.reference_spacetime_dofs):,} space-time DOFs), whose own error "
+               f"{ref.reference_run_error:.4g} is measured from its family's two coarser "
+               f"runs (d12 = {ref.reference_d12:.4g}, d23 = {ref.reference_d23:.4g}, "
+               f"r = {ref.reference_ratio:.3g}). A pass enters a rate fit only if its "
+               f"error exceeds {REFERENCE_MARGIN:g}× that (`in fit`); at or below that "
+               "bound the measured error is as much the reference's as the pass's, and its "
+               "local slope says nothing.")
+    return (how + "\n\n"
             + pass_table(d).to_markdown(index=False, floatfmt=".4g")
             + "\n\nRates over the passes in the fit (η's also over all passes), and the "
             "efficiency index η/error of every pass:\n\n"

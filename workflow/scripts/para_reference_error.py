@@ -20,14 +20,14 @@ logger = script_logger("para_reference_error")
 
 
 def main(ref, ref_row, coarser, quadrature, csv, log=None, threads=None, ref_operator=None):
-    """ref, ref_row: the reference run and its row; coarser: its family's two coarser runs
-    (coarsest first); ref_operator: the reference's operator saved by
+    """ref, ref_row: the reference run and its row; coarser: its family's coarser runs
+    (coarsest first; the last two measure its error); ref_operator: the reference's operator saved by
     para_reference_operator (None: assembled here)."""
     start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
     reference, s = stored_reference(ref, quad, ref_operator)
-    u1, _ = parabolic_pieces(coarser[0])
-    u2, _ = parabolic_pieces(coarser[1])
+    u1, _ = parabolic_pieces(coarser[-2])
+    u2, _ = parabolic_pieces(coarser[-1])
     disc2 = ff.discretise(u2[0][2], s, 0.0, quadrature=quad, operator="auto")
     fam = reference_family_error(u1, (u2, disc2.A, disc2.free), reference)
     logger.info("reference family: d12 = %.4e, d23 = %.4e, ratio %.3f: reference error "

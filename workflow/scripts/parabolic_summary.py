@@ -24,6 +24,9 @@ def reference_table(df):
     """One row per problem: the reference run, its measured error and the finest errors it
     judges (their ratio to it: the margin of the 3× rule)."""
     rows = []
+    if "reference_run_error" in df:     # report.with_fit_bound: the reference run's own
+        df = df.drop(columns="reference_error").rename(
+            columns={"reference_run_error": "reference_error"})
     for prob, d in df.groupby("problem"):
         ref = d.iloc[0]
         finest = d.loc[d.groupby("family").spacetime_dofs.idxmax()].set_index("family")

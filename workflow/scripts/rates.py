@@ -10,9 +10,10 @@ from fracfem_workflow.report import join_tiers, rate_table
 REF_ELLIPTIC = ("the reference energy is the extrapolation of a large adaptive series; its "
                 "uncertainty and cross-checks are in elliptic-errors.md")
 EXACT3 = "the reference energy is exact here (pure slip), so the difference is the method's"
-REF_PARA = ("the error is measured against a reference run whose own error is comparable "
-            "with the finest errors (dashed line in Figures 13/15), which steepens the fit; "
-            "parabolic-reference-check.md measures the effect on a problem with known solution")
+REF_PARA = ("the error is the distance to the limit of the reference's family, extrapolated "
+            "from the distances to its runs, each with its measured uncertainty (error bars "
+            "in Figures 13/15); parabolic-reference-check.md measures the extrapolation on a "
+            "problem with known solution")
 REASONS = {(1, "graded"): "the local slopes of our series approach the theoretical −1/2 of "
                          "N ~ h⁻² meshes from above (`ex1-errors.md`); the paper's rate is "
                          "steeper than that limit",
@@ -73,13 +74,15 @@ def differences(rates, limit=0.05, time_split=()):
         name = f"Example {r.example}{' (' + r.variant + ')' if r.variant else ''}"
         if pd.notna(r.paper_rate) and pd.isna(r.rate):
             lines.append(f"- {name}, {r.family}: no rate against {r.paper_rate:.3f} — only "
-                         f"{r.n_points} of its runs lie above 3× the reference's own error "
-                         "(or above the reference energy); a finer reference is needed.")
+                         f"{r.n_points} of its runs lie above 3× their reference's error "
+                         "(Examples 4, 5: the uncertainty of their error) or above the "
+                         "reference energy; a finer reference is needed.")
         if pd.notna(r.paper_rate) and abs(r.rate - r.paper_rate) > limit:
             why = reason(r, time_split)
             if r.n_excluded:
                 why = (f"{r.n_excluded} of its {r.n_points + r.n_excluded} runs lie within 3× "
-                       "the reference's own error and are left out, so the rate rests on "
+                       "their reference's error (Examples 4, 5: the uncertainty of their "
+                       "error) and are left out, so the rate rests on "
                        f"{r.n_points}; a finer reference is needed"
                        + ("" if why == "not explained yet" else f". Also: {why}"))
             lines.append(f"- {name}, {r.family}: {r.rate:.3f} against {r.paper_rate:.3f} — "

@@ -68,7 +68,19 @@ GROUPS = [
         "n_excluded": "runs left out: error ≤ 3× `reference_error`",
         "reference_error": "the reference's own error: 0 if exact; Examples 2, 3 the "
                            "`large uncertainty` of `elliptic-errors.md`; Examples 4, 5 "
-                           "the reference run's measured error (`parabolic-runs.md`)",
+                           "the measured uncertainty of each run's `error` "
+                           "(`error_uncertainty`; rates.csv: the largest of the series), "
+                           "or the reference run's measured error where that is not "
+                           "measured",
+        "error_vs_reference": "Examples 4, 5: the run's distance to the reference run "
+                              "alone (the finest of its family)",
+        "error_uncertainty": "Examples 4, 5: the change of the extrapolated `error` from "
+                             "the extrapolation through the family's coarser runs, and no "
+                             "less than its correction to `error_vs_reference` "
+                             "(fracfem.transfer.extrapolated_distance); NaN where fewer than "
+                             "four runs of the family are left to extrapolate through",
+        "reference_run_error": "Examples 4, 5: the reference run's own measured error, "
+                               "d23·r/(1 − r) (`parabolic-runs.md`)",
         "smallest_error": "smallest error of the series",
         ("dof_min", "dof_max"): "smallest and largest DOFs of the fit",
     }),
@@ -176,10 +188,23 @@ GROUPS = [
     }),
     ("Parabolic reference check (`parabolic-reference-check.md`)", False, {
         "exact error": "L²(0,T; a) error against the manufactured solution, exact in time",
-        "error vs reference": "the same run's error measured like Examples 4, 5, against "
-                              "a reference run",
-        ("rate, exact error", "rate, error vs reference"): "rates of these two errors "
-                                                           "against `spacetime_dofs`",
+        "error vs reference": "the same run's distance to the reference run alone",
+        "extrapolated error": "the same run's error measured like Examples 4, 5: the "
+                              "distance to the limit of the reference's family, extrapolated "
+                              "from the distances to its three finest runs",
+        "uncertainty": "the change of `extrapolated error` from the extrapolation through "
+                       "the three runs before, and no less than its correction to `error vs "
+                       "reference` (NaN: fewer than four runs to extrapolate through)",
+        "left out": "runs of the reference's family left out of the extrapolation: those "
+                    "on the run's own space mesh",
+        ("extrapolated / exact − 1", "vs reference / exact − 1"):
+            "relative deviation of `extrapolated error` and of `error vs reference` from "
+            "the exact error",
+        ("rate, exact error", "rate, error vs reference", "rate, extrapolated error"):
+            "rates of these errors against `spacetime_dofs`",
+        "largest |extrapolated − exact| / uncertainty": "the largest deviation of "
+            "`extrapolated error` from the exact error, in units of its `uncertainty` "
+            "(≤ 1: the uncertainty bounds it)",
         "finest exact error": "smallest exact error of the family",
         "reference's exact error": "exact error of the reference run",
         "exact errors": "exact errors of the reference's family, coarsest first",
@@ -196,8 +221,8 @@ GROUPS = [
     }),
     ("Algorithm C pass by pass (`<problem>-algorithm-c.md`)", False, {
         "slabs": "time slabs of the pass, each with one space mesh for all its time steps",
-        "error / reference_error": "the pass's error over the reference's own: the margin "
-                                   "of the 3× rule",
+        "error / reference_error": "the pass's error over its `reference_error`: the "
+                                   "margin of the 3× rule",
         "in fit": "whether the pass's error exceeds 3× `reference_error`, so that rates are "
                   "fitted through it",
         "local slope η": "`local slope` of the estimator η",

@@ -85,23 +85,34 @@ def reference_error_lines(ax, reference_error, how):
 def para_error_panel(ax, df, x="spacetime_dofs"):
     """One parabolic problem's errors on ax (Figures 13, 15): each family's error against
     ``x`` with its fitted and the paper's rate (rate_series), the estimator η and η with
-    its time term in the energy norm beside the adaptive error, the reference's own error
-    and 3× it.  df: para_errors' table, or Algorithm C's passes with a
-    ``reference_error`` column.  Rates are fitted against space-time DOFs only: against
+    its time term in the energy norm beside the adaptive error, and each error's measured
+    uncertainty (error bars; ``error_uncertainty``) or, where there is none, the
+    reference's own error and 3× it.  df: para_errors' table, or Algorithm C's passes
+    with a ``reference_error`` column.  Rates are fitted against space-time DOFs only: against
     wall time (``x="t_wall"``) the series are drawn without one, the runs outside the
     fit hollow as on the left."""
     from .report import eta_energy_time, fit_mask, fit_rate, paper_rate
 
     ex = int(df.example.iloc[0])
+    # errors extrapolated to the limit of the reference's family: each with its own
+    # measured uncertainty (error bars) instead of one reference error for all
+    per_run = "error_uncertainty" in df and bool(df.error_uncertainty.notna().any())
+    bars = False
     for fam, g in df.groupby("family"):
         g = g.sort_values(x)
         if x == "spacetime_dofs":
-            rate_series(ax, g[x], g.error, fam, g.reference_error.max(),
+            rate_series(ax, g[x], g.error, fam, g.reference_error,
                         paper_rate(ex, fam, g.s.iloc[0], g.variant.fillna("").iloc[0]))
         else:
             (line,) = ax.loglog(g[x], g.error, marker=MARKERS[fam], label=FAMILY_LABELS[fam])
-            left_out_markers(ax, line, g[x], g.error,
-                             fit_mask(g.error, g.reference_error.max()), fam)
+            left_out_markers(ax, line, g[x], g.error, fit_mask(g.error, g.reference_error),
+                             fam)
+        if per_run and g.error_uncertainty.notna().any():
+            ax.errorbar(g[x], g.error, yerr=g.error_uncertainty.fillna(0.0), fmt="none",
+                        ecolor="0.3", elinewidth=0.8, capsize=2, zorder=1,
+                        label=None if bars else
+                        "± measured uncertainty of the error (fits: error > 3× it)")
+            bars = True
         if "eta" in g and g.eta.notna().any():
             rate = (f": {fit_rate(g[x], g.eta):.3f}" if x == "spacetime_dofs" else "")
             ax.loglog(g[x], g.eta, ls=":", marker=".", color="k",
@@ -111,7 +122,8 @@ def para_error_panel(ax, df, x="spacetime_dofs"):
             rate = (f": {fit_rate(g[x], eta_a):.3f}" if x == "spacetime_dofs" else "")
             ax.loglog(g[x], eta_a, ls="-.", marker=".", color="0.45",
                       label=r"$\eta$ with its time term in the energy norm" + rate)
-    reference_error_lines(ax, df.reference_error.iloc[0], "measured")
+    if not per_run:
+        reference_error_lines(ax, df.reference_error.iloc[0], "measured")
 
 
 # Axis labels: what is measured, in the paper's symbols.

@@ -68,13 +68,13 @@ REFERENCE_MARGIN = 3.0
 
 def fit_mask(errors, reference_error=0.0) -> np.ndarray:
     """The runs a rate is fitted through: error > REFERENCE_MARGIN · reference_error
-    (every run when the reference is exact, reference_error = 0).  A reference whose
-    own error is unknown (NaN) excludes nothing."""
+    (every run when the reference is exact, reference_error = 0); reference_error is one
+    number or one per run (the parabolic examples: each run's uncertainty).  A reference
+    error that is unknown (NaN) excludes nothing; a NaN error is never fitted."""
     errors = np.asarray(errors, dtype=float)
-    ref = float(reference_error) if reference_error is not None else 0.0
-    if not np.isfinite(ref):
-        return np.ones(errors.shape, dtype=bool)
-    return errors > REFERENCE_MARGIN * ref
+    ref = np.broadcast_to(np.asarray(0.0 if reference_error is None else reference_error,
+                                     dtype=float), errors.shape)
+    return np.where(np.isfinite(ref), errors > REFERENCE_MARGIN * ref, True)
 
 
 def masked_rate(dofs, errors, keep) -> float:
@@ -103,7 +103,7 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
     for (ex, var, fam, s), g in df.groupby(["example", "variant", "family", "s"], sort=True):
         paper = paper_rate(ex, fam, s, var)
         ref_err = float(g.reference_error.max())
-        mask = fit_mask(g[y], ref_err)
+        mask = fit_mask(g[y], g.reference_error)
         keep = g[mask]
         rate = round(masked_rate(g[x], g[y], mask), 3)
         fitted = keep if len(keep) else g
@@ -233,6 +233,20 @@ def reference_family_error(coarsest, middle, reference) -> dict:
     return {"d12": d12, "d23": d23, "ratio": r, "error": err}
 
 
+def with_fit_bound(df):
+    """A parabolic errors table with its reference's row (para_reference_error) in every
+    row: that row's ``reference_error``, the finest run's own measured error, becomes
+    ``reference_run_error``, and ``reference_error``, the bound of :func:`fit_mask`,
+    becomes each run's ``error_uncertainty`` (the uncertainty of its distance to the
+    family's limit), or the finest run's error where that is not measured (a family of
+    three)."""
+    df = df.rename(columns={"reference_error": "reference_run_error"})
+    unc = df["error_uncertainty"] if "error_uncertainty" in df else np.nan
+    df["reference_error"] = pd.Series(unc, index=df.index, dtype=float).where(
+        lambda u: np.isfinite(u), df["reference_run_error"])
+    return df
+
+
 def energy_error(energy, reference) -> np.ndarray:
     """√(2 |E(u_h) − E_ref|): the energy-norm error for Example 1 (exact there)."""
     return np.sqrt(2.0 * np.abs(np.asarray(energy, dtype=float) - reference))
@@ -259,7 +273,7 @@ def algorithm_c_table(df):
     rows = []
     for prob, d in df[df.family == "adaptive"].groupby("problem"):
         d = d.sort_values("spacetime_dofs")
-        keep = fit_mask(d.error, d.reference_error.iloc[0])
+        keep = fit_mask(d.error, d.reference_error)
         eff = d.eta / d.error
         parts = {}
         for part in PARTS:

@@ -106,6 +106,38 @@ def stored_reference(npz, quadrature, operator=None):
     return SpaceTimeReference(pieces, A, free), s
 
 
+def stored_family(npz, coarser, quadrature, operator=None):
+    """(ReferenceFamily, s): the reference run of stored_reference with the coarser runs
+    of its family (npz files, coarsest first), to measure runs against the family's limit
+    (fracfem.transfer.ReferenceFamily; all distances in the reference's a-norm); with no
+    coarser runs, the reference's SpaceTimeReference alone."""
+    from fracfem.transfer import ReferenceFamily
+
+    reference, s = stored_reference(npz, quadrature, operator)
+    if not coarser:
+        return reference, s
+    pieces, _ = parabolic_pieces(npz)
+    members = [parabolic_pieces(c)[0] for c in coarser] + [pieces]
+    family = ReferenceFamily(members, reference.A, reference.free)
+    logging.getLogger("fracfem_workflow").info(
+        "reference family of %d runs: consecutive distances %s", len(members),
+        ", ".join(f"{d:.4g}" for d in family.steps))
+    return family, s
+
+
+def family_error(family, pieces) -> dict:
+    """A run's error columns against a ReferenceFamily: ``error``, the distance to the
+    family's limit (extrapolated), ``error_uncertainty``, its measured uncertainty (NaN
+    with three members), and ``error_vs_reference``, the distance to the finest member.
+    ``family`` may be a single SpaceTimeReference: then the error is the distance to it."""
+    if not hasattr(family, "error"):
+        d = family.distance(pieces)
+        return {"error": d, "error_uncertainty": float("nan"), "error_vs_reference": d}
+    out = family.error(pieces)
+    return {"error": out["error"], "error_uncertainty": out["uncertainty"],
+            "error_vs_reference": float(out["distances"][-1])}
+
+
 def _reference_operator(pieces, s, quadrature):
     import fracfem as ff
 
