@@ -351,7 +351,8 @@ def extrapolated_distance(distances, steps, exclude=()) -> dict:
     alignment of the members' errors with one another, only that the family be
     asymptotic.  ``uncertainty`` is the change from the estimate through the three
     members before, as a family's last step measures its finest member's error, and no
-    less than the correction to the distance to the finest member (K ≥ 4; NaN for K = 3).  Members in ``exclude`` (indices) are left out: the three finest and
+    less than the correction to the distance to the finest member (K ≥ 4; NaN for K = 3,
+    infinite if the estimate before fails).  Members in ``exclude`` (indices) are left out: the three finest and
     the three before of those that remain.  Returns {'error', 'uncertainty', 'ratio'}
     (ratio: the family's last d_{K−1}/d_{K−2}); an extrapolated e² ≤ 0 gives error NaN,
     fewer than three members left give NaN for both."""
@@ -378,8 +379,13 @@ def extrapolated_distance(distances, steps, exclude=()) -> dict:
     err = estimate(kept[-3:])
     # the change from the estimate before, and no less than the correction it makes to
     # the distance to the finest member left in (a correction is not trusted beyond its size)
-    unc = (max(abs(err - estimate(kept[-4:-1])), abs(err - e[kept[-1]]))
-           if len(kept) >= 4 else float("nan"))
+    if len(kept) >= 4:
+        before = estimate(kept[-4:-1])
+        # an estimate before that fails (e² ≤ 0) leaves the model unconfirmed: unbounded
+        unc = (max(abs(err - before), abs(err - e[kept[-1]])) if np.isfinite(before)
+               else float("inf"))
+    else:
+        unc = float("nan")
     return {"error": err, "uncertainty": unc, "ratio": float(ratios[-1])}
 
 

@@ -446,6 +446,7 @@ def test_pipeline_cost_sums_the_jobs_of_all_and_reads_gnu_time(tmp_path):
     cost.main(tmp_path / "results", tmp_path, log, in_all={"ex1/a.tsv", "para/b.tsv"})
     text = (tmp_path / "pipeline-cost.md").read_text()
     assert "1 h 02 min 03 s wall time" in text and "2.00 GiB" in text
+    assert cost._hms(3439.4) == "57 min 19 s"      # no "0 h" under an hour
     assert "sum to 2 minutes" in text
     assert re.search(r"total of `all`\s+\|\s+2 \|\s+120\.0 \|\s+96\.0 \|\s+300\.0", text)
     assert "1 thread per job" in text        # config.yaml's job_threads

@@ -104,6 +104,30 @@ def test_rate_table_fits_only_runs_well_above_the_reference_error():
     assert t.n_points == 1 and np.isnan(t.rate)
 
 
+def test_fit_bounds_per_run_nan_and_infinite():
+    """One bound per run (the parabolic errors' own uncertainties): each run is judged by
+    its own; an unknown bound (NaN) excludes nothing, an infinite one its run, and an error
+    that is not finite is never fitted; with_fit_bound falls back to the reference run's
+    error only where the uncertainty is unknown."""
+    from fracfem_workflow.report import fit_mask, with_fit_bound
+
+    err = np.array([0.5, 0.3, 0.2, 0.1, np.nan])
+    keep = fit_mask(err, np.array([0.1, 0.2, np.nan, np.inf, np.nan]))
+    assert keep.tolist() == [True, False, True, False, False]
+    assert fit_mask(err[:4], 0.05).tolist() == [True, True, True, False]
+    df = pd.DataFrame({"error": err[:3], "error_uncertainty": [0.01, np.nan, np.inf],
+                       "reference_error": 0.07})
+    b = with_fit_bound(df)
+    assert b.reference_error.tolist() == [0.01, 0.07, np.inf]
+    assert (b.reference_run_error == 0.07).all()
+    N = np.array([100.0, 400, 1600, 6400])
+    t = rate_table(pd.DataFrame({"example": 4, "family": "uniform", "s": 0.5, "dofs": N,
+                                 "error": N ** -0.3,
+                                 "reference_error": [1e-3, 1e-3, 1.0, 1e-3]})).iloc[0]
+    assert (t.n_points, t.n_excluded) == (3, 1) and t.rate == pytest.approx(-0.3)
+    assert t.reference_error == 1.0
+
+
 def test_paper_rate_only_for_the_papers_order_and_data():
     from fracfem_workflow.report import PAPER_RATES, paper_rate
     assert paper_rate(1, "graded", 0.5) == PAPER_RATES[(1, "graded")]

@@ -240,3 +240,28 @@ def test_extrapolated_distance_refuses_families_that_do_not_converge():
     assert kept["error"] == pytest.approx(expected, rel=1e-12)
     assert np.isnan(kept["uncertainty"])
     assert np.isnan(extrapolated_distance(e, d, exclude=[0, 1])["error"])
+
+
+def test_extrapolated_distance_uses_the_members_it_keeps():
+    """Five members, not on a model: the estimate is the parabola in x_k through the three
+    finest kept members and the uncertainty its change from the three kept before (no less
+    than its correction), computed here with numpy.polyfit; a failing estimate before makes
+    the uncertainty infinite."""
+    from fracfem.transfer import extrapolated_distance
+
+    e = np.array([0.61, 0.52, 0.47, 0.455, 0.449])
+    d = np.array([0.3, 0.16, 0.09, 0.05])
+    x = np.append(d, d[-1] ** 2 / d[-2])
+
+    def at0(idx):
+        return np.sqrt(np.polyfit(x[idx], e[idx] ** 2, 2)[-1])
+
+    for exclude, last, before in (((), [2, 3, 4], [1, 2, 3]), ((3,), [1, 2, 4], [0, 1, 2]),
+                                  ((4,), [1, 2, 3], [0, 1, 2])):
+        out = extrapolated_distance(e, d, exclude=exclude)
+        assert out["error"] == pytest.approx(at0(last), rel=1e-12)
+        assert out["uncertainty"] == pytest.approx(
+            max(abs(at0(last) - at0(before)), abs(at0(last) - e[last[-1]])), rel=1e-10)
+    # the estimate through the three before has e² < 0: nothing confirms this one
+    out = extrapolated_distance([0.9, 0.5, 0.1, 0.1], [0.5, 0.25, 0.125])
+    assert np.isfinite(out["error"]) and out["uncertainty"] == np.inf

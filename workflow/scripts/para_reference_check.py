@@ -84,9 +84,11 @@ def check(s, T, grading, series, tau_factor, family_tags, reference_tau_factor, 
                                                              g["extrapolated error"]),
                         "finest exact error": g["exact error"].min(),
                         "reference's exact error": ref_exact,
-                        "largest |extrapolated − exact| / uncertainty": float(np.max(
+                        # the bound the fits use (report.with_fit_bound): the
+                        # uncertainty, or the reference's estimated error where it has none
+                        "largest |extrapolated − exact| / bound": float(np.max(
                             np.abs(g["extrapolated error"] - g["exact error"])
-                            / g["uncertainty"]))})
+                            / g["uncertainty"].where(g["uncertainty"].notna(), estimate)))})
     estimate_row = {"s": s, "family": " → ".join(family_tags[-3:]),
                     "exact errors": ", ".join(f"{e:.4g}" for e in (e1, e2, ref_exact)),
                     "d12": measured["d12"], "d23": measured["d23"],

@@ -69,7 +69,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
                    iterations=max_iterations, c_tau=c_tau, marking="maximum", solver="pdas",
                    callback=record, keep_steps=True, solver_options={"tol": tol})
     df = pd.DataFrame(rows)
-    df["reference_error"] = df.error_uncertainty.where(np.isfinite(df.error_uncertainty),
+    df["reference_error"] = df.error_uncertainty.where(df.error_uncertainty.notna(),
                                                        ref_error)
     write_table(with_provenance(df.assign(**parameter_columns(
         quadrature=quad, T=T, theta=theta, c_tau=c_tau, start_level=start_level,
@@ -77,7 +77,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         data=data))), csv)
     paper = paper_rate(int(example[2:]), "adaptive", s, problem[4:] if example == "ex4" else "")
     with atomic_path(md) as tmp:
-        per_run = bool(np.isfinite(df.error_uncertainty).any())
+        per_run = bool(df.error_uncertainty.notna().any())
         tmp.write_text(report(df, None if per_run else ref_error, refinements, paper))
 
 

@@ -145,7 +145,10 @@ def main(results, out, time_log=None, configfile=None, in_all=None, assembly=Non
 
 
 def _hms(seconds):
+    """57 min 19 s; 1 h 02 min 33 s (no hours under one hour)."""
     h, rest = divmod(round(seconds), 3600)
+    if not h:
+        return f"{rest // 60} min {rest % 60:02d} s"
     return f"{h} h {rest // 60:02d} min {rest % 60:02d} s"
 
 

@@ -43,16 +43,16 @@ REASONS = {(1, "graded"): "the local slopes of our series approach the theoretic
 # the parabolic adaptive rows, where the problem's time-split table is made
 # (parabolic.time_split.problems); otherwise REF_PARA alone
 TIME_SPLIT = {4: "{table} solves each pass again with more time steps, the space meshes "
-                 "kept: unlike in Example 5 the time steps carry a small share of the "
-                 "squared error (`1 − (e(τ/16)/e)²`), so what remains is the space meshes' "
-                 "error and the reference's; the passes' local slopes steepen after the "
-                 "first pass, but the steeper passes lie within 3× the reference's own "
-                 "error and are left out; and " + REF_PARA,
+                 "kept: the time steps carry a small and shrinking share of the squared "
+                 "error (`1 − (e(τ/16)/e)²`), so the error is the space meshes'; its local "
+                 "slopes steepen after the first pass, and the fit over every pass from the "
+                 "coarsest mesh is pre-asymptotic at our sizes; η falls at the error's rate "
+                 "(`ex4-u1-algorithm-c.md`); and " + REF_PARA,
               5: "{table} solves each pass again with more time steps, the space meshes "
                  "kept: most of the first passes' error is the time discretisation's, and "
-                 "what the refined runs leave changes little but lies within 3× the "
-                 "reference's own error; the fitted rate is mostly that of the time error "
-                 "falling, before space and time balance; and " + REF_PARA}
+                 "what the refined runs leave changes little from the second pass on; the "
+                 "fitted rate is mostly that of the time error falling, before space and "
+                 "time balance; and " + REF_PARA}
 
 
 def reason(r, time_split=()):

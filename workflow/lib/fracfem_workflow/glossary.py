@@ -68,19 +68,7 @@ GROUPS = [
         "n_excluded": "runs left out: error ≤ 3× `reference_error`",
         "reference_error": "the reference's own error: 0 if exact; Examples 2, 3 the "
                            "`large uncertainty` of `elliptic-errors.md`; Examples 4, 5 "
-                           "the measured uncertainty of each run's `error` "
-                           "(`error_uncertainty`; rates.csv: the largest of the series), "
-                           "or the reference run's measured error where that is not "
-                           "measured",
-        "error_vs_reference": "Examples 4, 5: the run's distance to the reference run "
-                              "alone (the finest of its family)",
-        "error_uncertainty": "Examples 4, 5: the change of the extrapolated `error` from "
-                             "the extrapolation through the family's coarser runs, and no "
-                             "less than its correction to `error_vs_reference` "
-                             "(fracfem.transfer.extrapolated_distance); NaN where fewer than "
-                             "four runs of the family are left to extrapolate through",
-        "reference_run_error": "Examples 4, 5: the reference run's own measured error, "
-                               "d23·r/(1 − r) (`parabolic-runs.md`)",
+                           "the largest `error_uncertainty` of the series",
         "smallest_error": "smallest error of the series",
         ("dof_min", "dof_max"): "smallest and largest DOFs of the fit",
     }),
@@ -152,6 +140,16 @@ GROUPS = [
         "efficiency per step": "`efficiency` of every adaptive step, in order",
     }),
     ("Parabolic runs (`parabolic-runs.md`)", False, {
+        "error_vs_reference": "Examples 4, 5: the run's distance to the reference run "
+                              "alone (the finest of its family)",
+        "error_uncertainty": "Examples 4, 5: the change of the extrapolated `error` from "
+                             "the extrapolation through the family's coarser runs, and no "
+                             "less than its correction to `error_vs_reference` "
+                             "(fracfem.transfer.extrapolated_distance); NaN where fewer than "
+                             "four runs of the family are left to extrapolate through (then "
+                             "`reference_run_error` bounds the fits)",
+        "reference_run_error": "Examples 4, 5: the reference run's own measured error, "
+                               "d23·r/(1 − r) (`parabolic-runs.md`)",
         "first_contact": "Example 4: time of the first step with some λ_H < 0 (NaN: none)",
         ("d12", "d23"): "L²(0,T; a) distances between the reference's family at the two "
                         "coarser h (`parabolic.reference.coarser_h`), and between the finer "
@@ -202,9 +200,10 @@ GROUPS = [
             "the exact error",
         ("rate, exact error", "rate, error vs reference", "rate, extrapolated error"):
             "rates of these errors against `spacetime_dofs`",
-        "largest |extrapolated − exact| / uncertainty": "the largest deviation of "
-            "`extrapolated error` from the exact error, in units of its `uncertainty` "
-            "(≤ 1: the uncertainty bounds it)",
+        "largest |extrapolated − exact| / bound": "the largest deviation of "
+            "`extrapolated error` from the exact error, in units of the bound the rate fits "
+            "use: its `uncertainty`, or `reference error estimate` where it has none (≤ 1: "
+            "the bound holds)",
         "finest exact error": "smallest exact error of the family",
         "reference's exact error": "exact error of the reference run",
         "exact errors": "exact errors of the reference's family, coarsest first",

@@ -70,11 +70,12 @@ def fit_mask(errors, reference_error=0.0) -> np.ndarray:
     """The runs a rate is fitted through: error > REFERENCE_MARGIN · reference_error
     (every run when the reference is exact, reference_error = 0); reference_error is one
     number or one per run (the parabolic examples: each run's uncertainty).  A reference
-    error that is unknown (NaN) excludes nothing; a NaN error is never fitted."""
+    error that is unknown (NaN) excludes nothing, an infinite one excludes its run; an
+    error that is not finite is never fitted."""
     errors = np.asarray(errors, dtype=float)
     ref = np.broadcast_to(np.asarray(0.0 if reference_error is None else reference_error,
                                      dtype=float), errors.shape)
-    return np.where(np.isfinite(ref), errors > REFERENCE_MARGIN * ref, True)
+    return np.where(np.isnan(ref), True, errors > REFERENCE_MARGIN * ref) & np.isfinite(errors)
 
 
 def masked_rate(dofs, errors, keep) -> float:
@@ -238,12 +239,12 @@ def with_fit_bound(df):
     row: that row's ``reference_error``, the finest run's own measured error, becomes
     ``reference_run_error``, and ``reference_error``, the bound of :func:`fit_mask`,
     becomes each run's ``error_uncertainty`` (the uncertainty of its distance to the
-    family's limit), or the finest run's error where that is not measured (a family of
-    three)."""
+    family's limit), or the finest run's error where that is not measured (NaN: fewer
+    than four runs of the family to extrapolate through; an infinite one stays)."""
     df = df.rename(columns={"reference_error": "reference_run_error"})
     unc = df["error_uncertainty"] if "error_uncertainty" in df else np.nan
     df["reference_error"] = pd.Series(unc, index=df.index, dtype=float).where(
-        lambda u: np.isfinite(u), df["reference_run_error"])
+        lambda u: u.notna(), df["reference_run_error"])
     return df
 
 
