@@ -47,7 +47,7 @@ TIME_SPLIT = {4: "{table} solves each pass again with more time steps, the space
                  "error (`1 − (e(τ/16)/e)²`), so the error is the space meshes'; its local "
                  "slopes steepen after the first pass, and the fit over every pass from the "
                  "coarsest mesh is pre-asymptotic at our sizes; η falls at the error's rate "
-                 "(`ex4-u1-algorithm-c.md`); and " + REF_PARA,
+                 "({algorithm}); and " + REF_PARA,
               5: "{table} solves each pass again with more time steps, the space meshes "
                  "kept: most of the first passes' error is the time discretisation's, and "
                  "what the refined runs leave changes little from the second pass on; the "
@@ -62,7 +62,8 @@ def reason(r, time_split=()):
         variant = r.variant if isinstance(r.variant, str) else ""
         problem = f"ex{r.example}" + (f"-{variant}" if variant else "")
         if problem in time_split:
-            return TIME_SPLIT[r.example].format(table=f"`{problem}-time-split.md`")
+            return TIME_SPLIT[r.example].format(table=f"`{problem}-time-split.md`",
+                                                algorithm=f"`{problem}-algorithm-c.md`")
         return REF_PARA
     return REASONS.get((r.example, r.family), "not explained yet")
 
