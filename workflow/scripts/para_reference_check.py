@@ -86,7 +86,7 @@ def check(s, T, grading, series, tau_factor, family_tags, reference_tau_factor, 
                         "reference's exact error": ref_exact,
                         # the bound the fits use (report.with_fit_bound): the
                         # uncertainty, or the reference's estimated error where it has none
-                        "largest |extrapolated − exact| / bound": float(np.max(
+                        "largest deviation / bound": float(np.max(
                             np.abs(g["extrapolated error"] - g["exact error"])
                             / g["uncertainty"].where(g["uncertainty"].notna(), estimate)))})
     estimate_row = {"s": s, "family": " → ".join(family_tags[-3:]),

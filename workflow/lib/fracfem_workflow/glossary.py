@@ -200,10 +200,9 @@ GROUPS = [
             "the exact error",
         ("rate, exact error", "rate, error vs reference", "rate, extrapolated error"):
             "rates of these errors against `spacetime_dofs`",
-        "largest |extrapolated − exact| / bound": "the largest deviation of "
-            "`extrapolated error` from the exact error, in units of the bound the rate fits "
-            "use: its `uncertainty`, or `reference error estimate` where it has none (≤ 1: "
-            "the bound holds)",
+        "largest deviation / bound": "the largest |`extrapolated error` − `exact error`| "
+            "of the family, in units of the bound the rate fits use: its `uncertainty`, or "
+            "`reference error estimate` where it has none (≤ 1: the bound holds)",
         "finest exact error": "smallest exact error of the family",
         "reference's exact error": "exact error of the reference run",
         "exact errors": "exact errors of the reference's family, coarsest first",
