@@ -128,7 +128,7 @@ def stored_family(npz, coarser, quadrature, operator=None):
 def family_error(family, pieces) -> dict:
     """A run's error columns against a ReferenceFamily: ``error``, the distance to the
     family's limit (extrapolated), ``error_uncertainty``, its measured uncertainty (NaN
-    with three members), and ``error_vs_reference``, the distance to the finest member.
+    with three members to extrapolate through, infinite if unconfirmed), and ``error_vs_reference``, the distance to the finest member.
     ``family`` may be a single SpaceTimeReference: then the error is the distance to it."""
     if not hasattr(family, "error"):
         d = family.distance(pieces)
