@@ -55,9 +55,9 @@ def wait_group_gone(pgid, timeout=60):
     os.killpg(pgid, signal.SIGKILL)
 
 
-def check_results_intact(tmp_path):
+def check_results_intact(tmp_path, temporaries=True):
     leftovers = list((tmp_path / "res").rglob(".tmp-*")) + list((tmp_path / "out").rglob(".tmp-*"))
-    assert leftovers == [], f"temporary files left behind: {leftovers}"
+    assert not temporaries or leftovers == [], f"temporary files left behind: {leftovers}"
     for f in (tmp_path / "res").rglob("*.csv"):
         df = pd.read_csv(f)                      # parses: not truncated
         assert len(df) >= 1 and "git_commit" in df.columns   # provenance present
@@ -71,7 +71,9 @@ def test_interrupted_pipeline_restarts_cleanly(tmp_path, sig):
     os.killpg(proc.pid, sig)                     # the scheduler and its running job
     proc.wait(timeout=60)
     wait_group_gone(proc.pid)
-    check_results_intact(tmp_path)
+    # SIGKILL can land between a job's temporary file and its rename: that file may stay
+    # until the job is rerun (atomic_path removes its target's stale ones)
+    check_results_intact(tmp_path, temporaries=sig != signal.SIGKILL)
     if sig == signal.SIGKILL:                    # a killed scheduler leaves its lock
         subprocess.run(cmd + ["--unlock"], check=True, capture_output=True)
     # a job whose completion Snakemake had not recorded is rerun; all others are kept

@@ -114,3 +114,20 @@ def test_a_saved_reference_operator_measures_as_the_assembled_one(tmp_path):
     (tmp_path / "A.pkl").write_bytes(pickle.dumps(data))
     with pytest.raises(ValueError, match="product differs"):
         load_reference_operator(tmp_path / "A.pkl", pieces, 0.5, quad)
+
+
+def test_atomic_write_removes_its_targets_stale_temporary_files(tmp_path):
+    """A writer killed by SIGKILL leaves its temporary file; the next write of the same
+    target removes it, and leaves those of other targets alone."""
+    import pandas as pd
+
+    from fracfem_workflow.io import write_table
+
+    stale = tmp_path / ".tmp-x.csv-k1ll3d.csv"
+    other = tmp_path / ".tmp-y.csv-run1ng.csv"
+    stale.write_text("half a row")
+    other.write_text("being written")
+    write_table(pd.DataFrame({"a": [1]}), tmp_path / "x.csv")
+    assert not stale.exists() and other.exists()
+    assert pd.read_csv(tmp_path / "x.csv").a.tolist() == [1]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".tmp-y.csv-run1ng.csv", "x.csv"]

@@ -75,7 +75,11 @@ class atomic_path:
 
     def __enter__(self):
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=self.path.parent, prefix=".tmp-",
+        # a temporary file of this target left by a killed writer (SIGKILL cannot be
+        # cleaned up after) goes when the target is written again
+        for stale in self.path.parent.glob(f".tmp-{self.path.name}-*"):
+            stale.unlink(missing_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=self.path.parent, prefix=f".tmp-{self.path.name}-",
                                    suffix=self.suffix or self.path.suffix)
         os.close(fd)
         self.tmp = Path(tmp)
