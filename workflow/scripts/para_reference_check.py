@@ -16,7 +16,7 @@ from fracfem.meshes import mesh_size
 from fracfem.transfer import ReferenceFamily, SpaceTimeReference
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.report import fit_rate, reference_family_error
+from fracfem_workflow.report import fit_rate, masked_rate, reference_family_error
 from fracfem_workflow.runs import parameter_columns, start
 
 logger = script_logger("para_reference_check")
@@ -80,8 +80,11 @@ def check(s, T, grading, series, tau_factor, family_tags, reference_tau_factor, 
                         "rate, exact error": fit_rate(g.spacetime_dofs, g["exact error"]),
                         "rate, error vs reference": fit_rate(g.spacetime_dofs,
                                                              g["error vs reference"]),
-                        "rate, extrapolated error": fit_rate(g.spacetime_dofs,
-                                                             g["extrapolated error"]),
+                        # runs with no extrapolated error (too few family runs left
+                        # after those on their mesh) are not fitted
+                        "rate, extrapolated error": masked_rate(
+                            g.spacetime_dofs, g["extrapolated error"],
+                            np.isfinite(g["extrapolated error"])),
                         "finest exact error": g["exact error"].min(),
                         "reference's exact error": ref_exact,
                         # the bound the fits use (report.with_fit_bound): the
