@@ -13,7 +13,8 @@ import pandas as pd
 import fracfem as ff
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.report import fit_mask, local_slopes, masked_rate, paper_rate
+from fracfem_workflow.report import (fit_mask, local_slopes, masked_rate, paper_rate,
+                                     with_fit_bound)
 from fracfem_workflow.runs import family_error, parameter_columns, start, stored_family
 
 logger = script_logger("para_time_split")
@@ -69,8 +70,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
                    iterations=max_iterations, c_tau=c_tau, marking="maximum", solver="pdas",
                    callback=record, keep_steps=True, solver_options={"tol": tol})
     df = pd.DataFrame(rows)
-    df["reference_error"] = df.error_uncertainty.where(df.error_uncertainty.notna(),
-                                                       ref_error)
+    df = with_fit_bound(df.assign(reference_error=ref_error))
     write_table(with_provenance(df.assign(**parameter_columns(
         quadrature=quad, T=T, theta=theta, c_tau=c_tau, start_level=start_level,
         solver="pdas", tol=tol, operator=operator, refinements=refinements,

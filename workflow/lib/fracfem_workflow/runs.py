@@ -93,6 +93,12 @@ def stored_reference(npz, quadrature, operator=None):
     (checked: same mesh, s and quadrature, and one product as when it was saved)."""
     from fracfem.transfer import SpaceTimeReference
 
+    pieces, A, free, s = _stored_reference(npz, quadrature, operator)
+    return SpaceTimeReference(pieces, A, free), s
+
+
+def _stored_reference(npz, quadrature, operator=None):
+    """(pieces, A, free, s) of a stored reference run: stored_reference's parts."""
     pieces, d = parabolic_pieces(npz)
     s = float(d["s"])
     log = logging.getLogger("fracfem_workflow")
@@ -103,7 +109,7 @@ def stored_reference(npz, quadrature, operator=None):
     else:
         A, free = load_reference_operator(operator, pieces, s, quadrature)
         log.info("its operator read from %s", operator)
-    return SpaceTimeReference(pieces, A, free), s
+    return pieces, A, free, s
 
 
 def stored_family(npz, coarser, quadrature, operator=None):
@@ -113,12 +119,11 @@ def stored_family(npz, coarser, quadrature, operator=None):
     coarser runs, the reference's SpaceTimeReference alone."""
     from fracfem.transfer import ReferenceFamily
 
-    reference, s = stored_reference(npz, quadrature, operator)
     if not coarser:
-        return reference, s
-    pieces, _ = parabolic_pieces(npz)
+        return stored_reference(npz, quadrature, operator)
+    pieces, A, free, s = _stored_reference(npz, quadrature, operator)
     members = [parabolic_pieces(c)[0] for c in coarser] + [pieces]
-    family = ReferenceFamily(members, reference.A, reference.free)
+    family = ReferenceFamily(members, A, free)
     logging.getLogger("fracfem_workflow").info(
         "reference family of %d runs: consecutive distances %s", len(members),
         ", ".join(f"{d:.4g}" for d in family.steps))
