@@ -56,10 +56,26 @@ def _dense_fits(mesh) -> bool:
     return lim is None or need < 0.5 * lim
 
 
+def _check_reusable(stiffness, mesh, s, free):
+    """Refuse a Discretisation made for another mesh or s than the one it is reused for."""
+    if not isinstance(stiffness, Discretisation):
+        raise ValueError(f"stiffness={type(stiffness).__name__} must be a Discretisation "
+                         "(the result of discretise for this mesh and s)")
+    if float(stiffness.s) != float(s):
+        raise ValueError(f"stiffness was assembled for s={stiffness.s:g}, not s={float(s):g}")
+    same = (stiffness.mesh is mesh
+            or (stiffness.mesh.p.shape == mesh.p.shape and stiffness.mesh.t.shape == mesh.t.shape
+                and np.array_equal(stiffness.mesh.p, mesh.p)
+                and np.array_equal(stiffness.mesh.t, mesh.t)))
+    if not same or not np.array_equal(stiffness.free, free):
+        raise ValueError(f"stiffness was assembled on another mesh ({stiffness.mesh.p.shape[1]} "
+                         f"nodes) than this one ({mesh.p.shape[1]} nodes)")
+
+
 @validates("mesh")
 def discretise(mesh, s: float, f=1.0, *, quadrature: QuadratureOptions | None = None,
                load_order: int = 6, operator: str = "dense",
-               tol: float = DEFAULT_TOL) -> Discretisation:
+               tol: float = DEFAULT_TOL, stiffness=None) -> Discretisation:
     """Assemble the free-node matrix and load vector of (−Δ)^s u = f.
 
     operator: "dense" (an array; refused before assembly when it does not fit,
@@ -67,10 +83,17 @@ def discretise(mesh, s: float, f=1.0, *, quadrature: QuadratureOptions | None = 
     (:func:`fracfem.compressed.stiffness_operator` with accuracy ``tol``) or
     "auto" (dense up to 8,000 free nodes when it fits, else compressed).
     The mesh is checked once (:func:`fracfem.meshes.validate_mesh`).
+    stiffness: a Discretisation of this mesh and s made before (other data f): its
+    operator is reused instead of assembled, and only the load is computed.
     """
     if operator not in OPERATORS:
         raise ValueError(f"operator={operator!r} must be one of {OPERATORS}")
     free = mesh.interior_nodes()
+    if stiffness is not None:
+        _check_reusable(stiffness, mesh, s, free)
+        b = load_vector(mesh, f, order=load_order)[free]
+        return Discretisation(mesh, float(s), free, stiffness.A, b, {"assembly": 0.0},
+                              {**stiffness.info, "reused": True})
     if operator == "auto":
         operator = "dense" if len(free) <= AUTO_DENSE_NODES and _dense_fits(mesh) \
             else "compressed"

@@ -157,11 +157,14 @@ class Example4:
         return self.u0
 
     def problem(self, coarse, quadrature: QuadratureOptions | None = None,
-                operator: str = "dense"):
-        """The mixed problem of one time step's space discretisation on T_H = coarse."""
+                operator: str = "dense", stiffness=None):
+        """The mixed problem of one time step's space discretisation on T_H = coarse;
+        stiffness: the ``disc`` of a problem on the same mesh and s, to reuse its
+        operator (:func:`fracfem.vi.mixed_problem`)."""
         chi = examples.paraboloid_obstacle(self.height, self.slope)
         return vi.mixed_problem("obstacle", coarse, self.s, self.f, chi=chi,
-                                quadrature=quadrature, operator=operator)
+                                quadrature=quadrature, operator=operator,
+                                stiffness=stiffness)
 
 
 @dataclass(frozen=True)
@@ -183,10 +186,13 @@ class Example5:
         return examples.ring_initial(self.r0)
 
     def problem(self, coarse, quadrature: QuadratureOptions | None = None,
-                operator: str = "dense"):
-        """The mixed problem of one time step's space discretisation on T_H = coarse."""
+                operator: str = "dense", stiffness=None):
+        """The mixed problem of one time step's space discretisation on T_H = coarse;
+        stiffness: the ``disc`` of a problem on the same mesh and s, to reuse its
+        operator (:func:`fracfem.vi.mixed_problem`)."""
         return vi.mixed_problem("friction", coarse, self.s, self.f, F=self.F,
-                                quadrature=quadrature, operator=operator)
+                                quadrature=quadrature, operator=operator,
+                                stiffness=stiffness)
 
 
 def _segment(value) -> tuple[float, float]:

@@ -234,7 +234,9 @@ def _distances(pieces, references) -> np.ndarray:
         key = id(pieces[i][2])
         if current.get("key") != key:   # a new mesh: its pieces' basis
             idx = groups[key]
-            interp = interpolation_matrix(pieces[i][2], first.mesh.p)[first.free]
+            mesh = pieces[i][2]
+            interp = (sp.eye(mesh.p.shape[1], format="csr") if _same_mesh(mesh, first.mesh)
+                      else interpolation_matrix(mesh, first.mesh.p))[first.free]
             X = np.column_stack([np.asarray(pieces[k][3], dtype=float) for k in idx])
             current.clear()
             current.update(key=key, interp=interp,

@@ -62,13 +62,14 @@ def mixed_problem(kind: str, coarse, s: float, f, *, chi: Callable | None = None
                   edges: np.ndarray | None = None, height: Callable | None = None,
                   quadrature: QuadratureOptions | None = None,
                   fine=None, operator: str = "dense",
-                  tol: float = DEFAULT_TOL) -> MixedProblem:
+                  tol: float = DEFAULT_TOL, stiffness=None) -> MixedProblem:
     """Assemble the mixed problem of the given kind on T_H = coarse.
 
     kind: 'obstacle' (needs chi), 'friction' (F, optional subdomain),
     'thin_obstacle' (edges, height; s > 1/2), 'thin_friction' (edges, F; s > 1/2).
     operator, tol: the stiffness representation (:func:`fracfem.discretise`):
-    'dense', 'compressed' (accuracy tol) or 'auto'.
+    'dense', 'compressed' (accuracy tol) or 'auto'.  stiffness: the ``disc`` of a
+    problem on the same meshes and s, whose operator is reused (other data: f, χ, F).
     """
     if kind not in KINDS:
         raise ValueError(f"kind={kind!r} must be one of {KINDS}")
@@ -80,7 +81,8 @@ def mixed_problem(kind: str, coarse, s: float, f, *, chi: Callable | None = None
     t0 = time.perf_counter()
     fine = fine_mesh(coarse) if fine is None else fine
     t_mesh = time.perf_counter() - t0
-    disc = discretise(fine, s, f, quadrature=quadrature, operator=operator, tol=tol)
+    disc = discretise(fine, s, f, quadrature=quadrature, operator=operator, tol=tol,
+                      stiffness=stiffness)
     free = disc.free
     if kind == "obstacle":
         if chi is None:

@@ -98,6 +98,31 @@ def test_example5_is_friction_everywhere_with_a_ring_initial_value():
     assert u0[0] > 0 > u0[1]
 
 
+def test_other_parabolic_data_reuse_the_operator_of_the_same_mesh():
+    """problem(coarse, stiffness=disc) is the problem assembled afresh for the new data
+    (the same operator, its own load and constraints); a disc of another mesh or s is
+    refused, naming it."""
+    coarse = problems.multiplier_mesh("L3")
+    first = problems.Example5(s=0.6, F=0.1).problem(coarse)
+    fresh = problems.Example5(s=0.6, F=0.0).problem(coarse)
+    reused = problems.Example5(s=0.6, F=0.0).problem(coarse, stiffness=first.disc)
+    assert reused.disc.A is first.disc.A
+    np.testing.assert_allclose(reused.disc.A, fresh.disc.A, rtol=1e-13, atol=0)
+    np.testing.assert_array_equal(reused.cset.upper, 0.0)
+    obstacle = problems.Example4(s=0.6, u0=2.0).problem(coarse, stiffness=first.disc)
+    assert obstacle.kind == "obstacle" and obstacle.disc.A is first.disc.A
+    l1 = ff.disk_uniform(1)
+    d1 = ff.discretise(l1, 0.6, 1.0)
+    d2 = ff.discretise(l1, 0.6, 2.0, stiffness=d1)
+    np.testing.assert_allclose(d2.b, 2 * d1.b, rtol=1e-14)
+    with pytest.raises(ValueError, match="another mesh"):
+        problems.Example5(s=0.6).problem(problems.multiplier_mesh("L2"), stiffness=first.disc)
+    with pytest.raises(ValueError, match="s=0.6, not s=0.5"):
+        problems.Example5(s=0.5).problem(coarse, stiffness=first.disc)
+    with pytest.raises(ValueError, match="stiffness"):
+        ff.discretise(l1, 0.6, stiffness=d1.A)
+
+
 def test_example3_load_is_the_radial_load():
     ex = problems.Example3(a=1.0, b=3.0)
     x = np.array([[0.0, 1.0], [0.0, 0.0]])

@@ -213,6 +213,7 @@ def test_reference_family_distances_match_one_reference_per_member():
     assert fam.shared_members([(a, b, copy, x) for a, b, _, x in pieces]) == [1]
     assert fam.shared_members(run(coarse, [0, 1])) == [0]
     assert fam.shared_members(run(refine_disk(mid, [0]), [0, 1])) == []
+    assert fam.distances(members[-1])[-1] == 0.0      # the finest member to itself
     for k, m in enumerate(members):
         on_fine = [(a, b, fine, interpolate(mm, x, fine)) for a, b, mm, x in m]
         one = SpaceTimeReference(on_fine, disc.A, disc.free)

@@ -368,8 +368,16 @@ rule para_reference_check:
 
 
 # Example 5's uniform rate: the series against references made alike, for Example 5 and for
-# one change of it at a time (no friction; an initial value that does not vanish on ∂Ω)
+# one change of it at a time (no friction; an initial value that does not vanish on ∂Ω);
+# Example 5's own runs are para_solve's, the changed cases share their operators
 rule ex5_uniform_cause:
+    input:
+        family=lambda w: [path(rules.para_solve.output.npz, problem="ex5",
+                               family="reference", tag=series_tag("graded", h))
+                          for h in PARA["reference"]["check_h"][-3:]],
+        uniform=lambda w: [path(rules.para_solve.output.npz, problem="ex5", family="uniform",
+                                tag=series_tag("uniform", lv))
+                           for lv in PARA["uniform_levels"]],
     output:
         md=report(
             f"{OUT}/ex5-uniform-rate.md",

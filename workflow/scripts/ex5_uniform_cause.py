@@ -7,6 +7,10 @@ the same way for: Example 5 as it is; without friction (F = 0: the fractional he
 from the same u₀); and with u₀ = 1 instead of the ring (|x| − 1)(|x| − r₀), i.e. an initial
 value that does not vanish on ∂Ω, as in Example 4.  Local slopes between consecutive runs
 show whether a fitted rate is still pre-asymptotic.
+
+Example 5's own runs (its uniform series and the graded family) are the pipeline's
+(rule para_solve), read from their files; the changed cases are solved here, each on
+the operators assembled once per mesh for all of them (they change only F or u₀).
 """
 import pandas as pd
 
@@ -16,14 +20,17 @@ from fracfem.transfer import SpaceTimeReference
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import fit_mask, local_slopes, masked_rate, reference_family_error
-from fracfem_workflow.runs import parameter_columns, start
+from fracfem_workflow.runs import parabolic_pieces, parameter_columns, start
 
 logger = script_logger("ex5_uniform_cause")
 
 
-def run(ex, u0, tag, grading, T, tau_factor, tol, quad):
-    """(pieces [(t0, t1, mesh, u)], free-node operator, free nodes) of one DG(0) run."""
-    prob = ex.problem(ff.multiplier_mesh(tag, grading), quad)
+def run(ex, u0, tag, grading, T, tau_factor, tol, quad, operators):
+    """(pieces [(t0, t1, mesh, u)], free-node operator, free nodes) of one DG(0) run;
+    operators: {tag: disc} of the meshes assembled so far (reused, and filled)."""
+    prob = ex.problem(ff.multiplier_mesh(tag, grading), quad, operator="auto",
+                      stiffness=operators.get(tag))
+    operators.setdefault(tag, prob.disc)
     times = ff.time_grid(T=T, tau=ff.time_step(mesh_size(prob.fine), prob.disc.s, tau_factor))
     steps = list(ff.time_steps(ff.Stepper(prob), u0, times, solver="pdas",
                                solver_options={"tol": tol}))
@@ -31,30 +38,57 @@ def run(ex, u0, tag, grading, T, tau_factor, tol, quad):
     return pieces, prob.disc.A, prob.disc.free
 
 
+def stored(npz, tag, ex, grading, quad, operators):
+    """run's result for a run of Example 5 made by the pipeline (para_solve's npz), with
+    the operator of its mesh (assembled here once, for the changed cases too)."""
+    pieces, d = parabolic_pieces(npz)
+    if tag not in operators:
+        operators[tag] = ex.problem(ff.multiplier_mesh(tag, grading), quad,
+                                    operator="auto").disc
+    disc = operators[tag]
+    if disc.mesh.p.shape != pieces[0][2].p.shape or float(d["s"]) != disc.s:
+        raise ValueError(f"{npz} is not the run {tag} of Example 5 with s = {disc.s:g}")
+    return pieces, disc.A, disc.free
+
+
 def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h,
-         reference_tau_factor, tol, quadrature, md, csv, log=None, threads=None):
+         reference_tau_factor, tol, quadrature, md, csv, log=None, threads=None,
+         family_runs=None, uniform_runs=None):
     """data: Example 5's parameters; changes: {name: {'F': …} or {'u0': …}}, each one change
     of Example 5; the reference is the last of the graded family family_h
     (τ = reference_tau_factor h_max^{2s}), its error measured from the other two
-    (report.geometric_tail)."""
+    (report.geometric_tail).  family_runs, uniform_runs: para_solve's npz files of
+    Example 5's family and uniform series made with these settings, read instead of
+    solved again (None: solved here)."""
     start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
     tags = [ff.series_tag("uniform", lv) for lv in uniform_levels]
     family = [ff.series_tag("graded", h) for h in family_h]
-    rows, refs = [], []
+    for name, files, want in (("family_runs", family_runs, family),
+                              ("uniform_runs", uniform_runs, tags)):
+        if files is not None and len(files) != len(want):
+            raise ValueError(f"{name} has {len(files)} files; the runs {want} need one each")
+    rows, refs, operators = [], [], {}
     for name, change in {"Example 5": {}, **changes}.items():
         ex = ff.example("ex5", **{**data, **{k: v for k, v in change.items() if k != "u0"}})
         u0 = change.get("u0", ex.initial_value)
+        own = name == "Example 5"
+
+        def solved(tag, tau_factor, files, i, ex=ex, u0=u0, own=own):
+            if own and files is not None:
+                return stored(files[i], tag, ex, grading, quad, operators)
+            return run(ex, u0, tag, grading, T, tau_factor, tol, quad, operators)
+
         (p1, _, _), (p2, A2, free2), (ref, A, free) = [
-            run(ex, u0, tag, grading, T, reference_tau_factor, tol, quad) for tag in family]
+            solved(tag, reference_tau_factor, family_runs, i) for i, tag in enumerate(family)]
         reference = SpaceTimeReference(ref, A, free)
         fam = reference_family_error(p1, (p2, A2, free2), reference)
         ref_err = fam["error"]
         refs.append({"case": name, "reference run": family[-1], "ratio r": fam["ratio"],
                      "reference_error": ref_err})
         logger.info("%s: reference error %.4g (r = %.3f)", name, ref_err, fam["ratio"])
-        for tag in tags:
-            pieces, _, fr = run(ex, u0, tag, grading, T, uniform_tau_factor, tol, quad)
+        for i, tag in enumerate(tags):
+            pieces, _, fr = solved(tag, uniform_tau_factor, uniform_runs, i)
             rows.append({"case": name, "tag": tag, "spacetime_dofs": len(fr) * len(pieces),
                          "error": reference.distance(pieces), "reference_error": ref_err})
     df = pd.DataFrame(rows)
@@ -91,4 +125,5 @@ if __name__ == "__main__":
          snakemake.params.uniform_tau_factor, snakemake.params.family_h,  # noqa: F821
          snakemake.params.reference_tau_factor, snakemake.params.tol,  # noqa: F821
          snakemake.params.quadrature, snakemake.output.md, snakemake.output.csv,  # noqa: F821
-         snakemake.log[0], snakemake.threads)  # noqa: F821
+         snakemake.log[0], snakemake.threads,  # noqa: F821
+         list(snakemake.input.family), list(snakemake.input.uniform))  # noqa: F821
