@@ -374,7 +374,7 @@ rule ex5_uniform_cause:
     input:
         family=lambda w: [path(rules.para_solve.output.npz, problem="ex5",
                                family="reference", tag=series_tag("graded", h))
-                          for h in PARA["reference"]["check_h"][-3:]],
+                          for h in PARA["reference"]["check_h"]],
         uniform=lambda w: [path(rules.para_solve.output.npz, problem="ex5", family="uniform",
                                 tag=series_tag("uniform", lv))
                            for lv in PARA["uniform_levels"]],
@@ -393,7 +393,7 @@ rule ex5_uniform_cause:
         grading=GRADING,
         uniform_levels=PARA["uniform_levels"],
         uniform_tau_factor=PARA["tau_factor"]["uniform"],
-        family_h=PARA["reference"]["check_h"][-3:],
+        family_h=PARA["reference"]["check_h"],
         reference_tau_factor=PARA["reference"]["tau_factor"],
         tol=SOLVER["tol"],
         quadrature=PARA_QUADRATURE,

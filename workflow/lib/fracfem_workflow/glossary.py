@@ -212,7 +212,14 @@ GROUPS = [
     }),
     ("Example 5's uniform rate (`ex5-uniform-rate.md`)", False, {
         "case": "Example 5 as configured, or one change of it",
-        "reference run": "the graded run the case's series is measured against",
+        "reference run": "the finest graded run of the family the case's series is "
+                         "measured against",
+        "consecutive distances": "distances between consecutive runs of that family, "
+                                 "coarsest first",
+        "rate_vs_reference": "rate of the distances to the family's finest run alone "
+                             "(`error_vs_reference`), all runs",
+        "largest uncertainty / error": "the largest `error_uncertainty` / `error` of the "
+                                       "series",
         "local slope": "slope of log `error` against log `dofs` (Examples 4, 5: "
                        "`spacetime_dofs`) from the previous run of the series",
         "last local slope": "`local slope` of the finest run",
