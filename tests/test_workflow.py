@@ -91,12 +91,13 @@ def test_parabolic_figure_runs_only_its_jobs(tmp_path):
     jobs = job_counts(text)
     # Figure 13: Example 4 (both initial values): series, the reference's family (and the
     # reference's operator, once: both have s = 1/2 and the same reference mesh),
-    # Algorithm C, errors
+    # Algorithm C, errors; the family, built once per problem for its jobs
     assert set(jobs) == {"para_solve", "para_reference_solve", "para_reference_operator",
-                         "para_adaptive", "para_reference_error", "para_errors",
-                         "fig_para_error"}
+                         "para_reference_family", "para_adaptive", "para_reference_error",
+                         "para_errors", "fig_para_error"}
     assert jobs["para_adaptive"] == 2 and jobs["para_errors"] == 2
     assert jobs["para_reference_operator"] == 1 and jobs["para_reference_error"] == 2
+    assert jobs["para_reference_family"] == 2
     assert "ex4-u1/reference-operator.pkl" in text
     assert "ex4-u2/reference-operator.pkl" not in text
     assert "ex5" not in text and "ex1_solve" not in text and "vi_solve" not in text
@@ -108,8 +109,9 @@ def test_algorithm_c_page_runs_without_the_series(tmp_path):
     _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
                       "--", f"{tmp_path}/o/ex4-u1-algorithm-c.md")
     jobs = job_counts(text)
-    assert set(jobs) == {"para_reference_solve", "para_reference_operator", "para_adaptive",
-                         "para_reference_error", "para_passes"}
+    assert set(jobs) == {"para_reference_solve", "para_reference_operator",
+                         "para_reference_family", "para_adaptive", "para_reference_error",
+                         "para_passes"}
     assert jobs["para_adaptive"] == 1 and jobs["para_passes"] == 1
 
 

@@ -116,6 +116,45 @@ def test_a_saved_reference_operator_measures_as_the_assembled_one(tmp_path):
         load_reference_operator(tmp_path / "A.pkl", pieces, 0.5, quad)
 
 
+def test_a_saved_reference_family_measures_as_the_one_built_in_the_job(tmp_path):
+    """save_reference_family's file, read by stored_family, gives the distances and
+    extrapolated error of the family built in the job; one made from other runs, or whose
+    distances have changed, is refused."""
+    import pickle
+
+    from fracfem_workflow.runs import family_error, save_reference_family, stored_family
+    rng = np.random.default_rng(3)
+    files = []
+    for k, (level, n) in enumerate(((1, 2), (2, 3), (3, 4), (3, 6))):
+        m = ff.disk_uniform(level)           # a converging family: u + 0.2^k (noise)
+        times = np.linspace(0.0, 1.0, n + 1)
+        U = (1.0 - (m.p ** 2).sum(0))[None, :] * (1.0 + times[:, None]) \
+            + 0.2 ** k * rng.standard_normal((n + 1, m.p.shape[1]))
+        U[:, m.boundary_nodes()] = 0.0
+        files.append(tmp_path / f"run{len(files)}.npz")
+        save_arrays(files[-1], p=m.p, t=m.t, times=times, U=U, s=0.5)
+    ref, coarser, quad = files[-1], files[:-1], ff.QuadratureOptions()
+    save_reference_family(ref, coarser, quad, None, tmp_path / "family.pkl")
+    fresh, _ = stored_family(ref, coarser, quad)
+    read, s = stored_family(ref, coarser, quad, saved=tmp_path / "family.pkl")
+    run = [(0.0, 0.4, ff.disk_uniform(2), rng.standard_normal(ff.disk_uniform(2).p.shape[1])),
+           (0.4, 1.0, ff.disk_uniform(2), np.zeros(ff.disk_uniform(2).p.shape[1]))]
+    assert s == 0.5
+    np.testing.assert_allclose(read.steps, fresh.steps, rtol=1e-13)
+    np.testing.assert_allclose(read.distances(run), fresh.distances(run), rtol=1e-13)
+    assert family_error(read, run) == pytest.approx(family_error(fresh, run), rel=1e-12,
+                                                    nan_ok=True)
+    with pytest.raises(ValueError, match="other runs or another quadrature"):
+        stored_family(ref, coarser[1:], quad, saved=tmp_path / "family.pkl")
+    with pytest.raises(ValueError, match="other runs or another quadrature"):
+        stored_family(ref, coarser, quad.raised(), saved=tmp_path / "family.pkl")
+    data = pickle.loads((tmp_path / "family.pkl").read_bytes())
+    data["check"] = 1.001 * data["check"]
+    (tmp_path / "family.pkl").write_bytes(pickle.dumps(data))
+    with pytest.raises(ValueError, match="distances differ"):
+        stored_family(ref, coarser, quad, saved=tmp_path / "family.pkl")
+
+
 def test_atomic_write_removes_its_targets_stale_temporary_files(tmp_path):
     """A writer killed by SIGKILL leaves its temporary file; the next write of the same
     target removes it, and leaves those of other targets alone."""

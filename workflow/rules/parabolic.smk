@@ -60,11 +60,37 @@ rule para_reference_operator:
         "../scripts/para_reference_operator.py"
 
 
+# The reference's family (para_reference_coarser and the reference) with the operator's
+# products of every run, built once (a minute at the default tier's size) for the jobs
+# below that measure runs against its limit; deleted when they are done
+rule para_reference_family:
+    input:
+        ref=para_reference,
+        operator=para_reference_operator,
+        coarser=para_reference_coarser,
+    output:
+        pkl=temp(f"{RES}/para/{{problem}}/reference-family.pkl"),
+    log:
+        f"{RES}/logs/para/{{problem}}_reference_family.log",
+    benchmark:
+        f"{RES}/benchmarks/para/{{problem}}_reference_family.tsv"
+    wildcard_constraints:
+        problem="|".join(PARA_PROBLEMS),
+    params:
+        quadrature=PARA_QUADRATURE,
+    threads: JOB_THREADS
+    conda:
+        ENV
+    script:
+        "../scripts/para_reference_family.py"
+
+
 rule para_adaptive:
     input:
         ref=para_reference,
         operator=para_reference_operator,
         coarser=para_reference_coarser,
+        family=rules.para_reference_family.output.pkl,
     output:
         table=f"{RES}/para/{{problem}}/adaptive/iterations.csv",
         npz=f"{RES}/para/{{problem}}/adaptive/meshes.npz",
@@ -131,6 +157,7 @@ rule para_errors:
         ref=para_reference,
         operator=para_reference_operator,
         coarser=para_reference_coarser,
+        family=rules.para_reference_family.output.pkl,
         ref_error=rules.para_reference_error.output.csv,
     output:
         csv=f"{RES}/para/{{problem}}/errors.csv",
@@ -415,6 +442,7 @@ rule para_time_split:
         ref=para_reference,
         operator=para_reference_operator,
         coarser=para_reference_coarser,
+        family=rules.para_reference_family.output.pkl,
         errors=rules.para_errors.output.csv,
     output:
         md=report(

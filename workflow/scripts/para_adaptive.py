@@ -93,9 +93,10 @@ def load_checkpoint(path, key, max_spacetime_dofs, max_iterations):
 def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
          max_iterations, figure_iterations, output_times, tol, quadrature, ref, table, npz,
          log=None, threads=None, operator="dense", ref_operator=None, checkpoint=None,
-         coarser=()):
+         coarser=(), family=None):
     """problem: the run's name; example, data: fracfem.example(example, **data); ref: the
     reference run the errors are measured against, coarser: the coarser runs of its family
+    (family: para_reference_family's file of them, read instead of built)
     (coarsest first; the error is the distance to the family's limit, runs.family_error);
     operator: each slab's stiffness ('dense', 'compressed', 'auto'); ref_operator: the reference's operator, saved by
     para_reference_operator (None: assembled here); checkpoint: the file each pass that
@@ -117,7 +118,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     if slabs is not None:
         log_next_pass(first, slabs, ex.s, c_tau)
     t0 = time.perf_counter()
-    reference, s = stored_family(ref, list(coarser), quad, ref_operator)
+    reference, s = stored_family(ref, list(coarser), quad, ref_operator, family)
     t_ref = time.perf_counter() - t0
     t_start = time.perf_counter() - elapsed     # all invocations' passes count
     keep = {int(k) for k in figure_iterations}
@@ -212,4 +213,4 @@ if __name__ == "__main__":
          snakemake.output.table, snakemake.output.npz, snakemake.log[0],  # noqa: F821
          snakemake.threads, snakemake.params.operator,  # noqa: F821
          snakemake.input.operator, snakemake.params.checkpoint,  # noqa: F821
-         list(snakemake.input.coarser))  # noqa: F821
+         list(snakemake.input.coarser), snakemake.input.get("family"))  # noqa: F821

@@ -23,13 +23,14 @@ logger = script_logger("para_errors")
 
 
 def main(rows, npzs, ref, ref_error, adaptive, quadrature, csv, log=None,
-         threads=None, ref_operator=None, coarser=()):
+         threads=None, ref_operator=None, coarser=(), family=None):
     """rows, npzs: the uniform and graded runs (same order); ref: the reference run;
     ref_error: its own error (para_reference_error's row); adaptive: Algorithm C's table
-    (its errors are computed there); coarser: the coarser runs of the reference's family."""
+    (its errors are computed there); coarser: the coarser runs of the reference's family;
+    family: para_reference_family's file of them (read instead of built)."""
     start(log, threads)
     family, _ = stored_family(ref, list(coarser), ff.QuadratureOptions(**quadrature),
-                              ref_operator)
+                              ref_operator, family)
     info = pd.read_csv(ref_error).iloc[0].to_dict()
     df = pd.concat([pd.read_csv(r) for r in rows], ignore_index=True)
     errors = {}
@@ -57,4 +58,5 @@ if __name__ == "__main__":
          snakemake.input.ref, snakemake.input.ref_error,  # noqa: F821
          snakemake.input.adaptive, snakemake.params.quadrature,  # noqa: F821
          snakemake.output.csv, snakemake.log[0], snakemake.threads,  # noqa: F821
-         snakemake.input.operator, list(snakemake.input.coarser))  # noqa: F821
+         snakemake.input.operator, list(snakemake.input.coarser),  # noqa: F821
+         snakemake.input.get("family"))  # noqa: F821

@@ -24,9 +24,10 @@ CACHE_BYTES = "1G"
 
 def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
          max_iterations, refinements, tol, quadrature, ref, errors, csv, md, log=None,
-         threads=None, operator="dense", ref_operator=None, coarser=()):
+         threads=None, operator="dense", ref_operator=None, coarser=(), family=None):
     """refinements: the factors m (1 is always included: the pass itself); ref: the
-    reference run, coarser: the coarser runs of its family; errors: the problem's
+    reference run, coarser: the coarser runs of its family (family: para_reference_family's
+    file of them, read instead of built); errors: the problem's
     errors.csv (the reference run's own error, where an error's uncertainty is not measured);
     ref_operator: the reference's operator saved by para_reference_operator (None:
     assembled here)."""
@@ -37,7 +38,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     known = pd.read_csv(errors)
     ref_error = float((known.reference_run_error if "reference_run_error" in known
                        else known.reference_error).max())
-    reference, s = stored_family(ref, list(coarser), quad, ref_operator)
+    reference, s = stored_family(ref, list(coarser), quad, ref_operator, family)
 
     def make(coarse):
         return ex.problem(coarse, quad, operator=operator)
@@ -133,4 +134,4 @@ if __name__ == "__main__":
          sm.params.max_spacetime_dofs, sm.params.max_iterations, sm.params.refinements,
          sm.params.tol, sm.params.quadrature, sm.input.ref, sm.input.errors, sm.output.csv,
          sm.output.md, sm.log[0], sm.threads, sm.params.operator, sm.input.operator,
-         list(sm.input.coarser))
+         list(sm.input.coarser), sm.input.get("family"))

@@ -11,8 +11,8 @@ import numpy as np
 from .logs import log_to
 
 __all__ = ["start", "parameter_columns", "parameter_names", "parabolic_pieces",
-           "mismatched_parameters", "stored_reference", "save_reference_operator",
-           "load_reference_operator"]
+           "mismatched_parameters", "stored_reference", "stored_family",
+           "save_reference_operator", "load_reference_operator", "save_reference_family"]
 
 # scalar parameters recorded in result rows (besides the quadrature_<field> columns)
 PARAMETERS = ("grading", "theta", "marking", "start_level", "max_dofs", "solver", "cross_check",
@@ -112,15 +112,19 @@ def _stored_reference(npz, quadrature, operator=None):
     return pieces, A, free, s
 
 
-def stored_family(npz, coarser, quadrature, operator=None):
+def stored_family(npz, coarser, quadrature, operator=None, saved=None):
     """(ReferenceFamily, s): the reference run of stored_reference with the coarser runs
     of its family (npz files, coarsest first), to measure runs against the family's limit
     (fracfem.transfer.ReferenceFamily; all distances in the reference's a-norm); with no
-    coarser runs, the reference's SpaceTimeReference alone."""
+    coarser runs, the reference's SpaceTimeReference alone.  saved: a file of
+    save_reference_family for these runs and quadrature, read instead of building it
+    (checked: the same runs, and one distance as when it was saved)."""
     from fracfem.transfer import ReferenceFamily
 
     if not coarser:
         return stored_reference(npz, quadrature, operator)
+    if saved is not None:
+        return _load_family(saved, npz, coarser, quadrature)
     pieces, A, free, s = _stored_reference(npz, quadrature, operator)
     members = [parabolic_pieces(c)[0] for c in coarser] + [pieces]
     family = ReferenceFamily(members, A, free)
@@ -128,6 +132,54 @@ def stored_family(npz, coarser, quadrature, operator=None):
         "reference family of %d runs: consecutive distances %s", len(members),
         ", ".join(f"{d:.4g}" for d in family.steps))
     return family, s
+
+
+def _family_key(npz, coarser, quadrature):
+    """What a saved reference family must have been made from: the reference run's
+    operator key and each run's stored values (shape and sum)."""
+    pieces, d = parabolic_pieces(npz)
+    key = {"reference": _operator_key(pieces, float(d["s"]), quadrature), "runs": []}
+    for c in [*coarser, npz]:
+        U = np.load(c)["U"]
+        key["runs"].append([list(U.shape), float(np.asarray(U, dtype=float).sum())])
+    return key, pieces
+
+
+def save_reference_family(npz, coarser, quadrature, operator, out):
+    """Build stored_family once and write it (pickle, with what it was made from and the
+    distance of the coarsest run to it) for the jobs that measure runs against it."""
+    import pickle
+
+    from .io import atomic_path
+
+    family, s = stored_family(npz, coarser, quadrature, operator)
+    key, _ = _family_key(npz, coarser, quadrature)
+    coarsest = parabolic_pieces(coarser[0])[0]
+    data = {"key": key, "family": family, "s": s,
+            "check": np.asarray(family.distances(coarsest), dtype=float)}
+    with atomic_path(out) as tmp:
+        with open(tmp, "wb") as f:
+            pickle.dump(data, f, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def _load_family(path, npz, coarser, quadrature):
+    import pickle
+
+    with open(path, "rb") as f:
+        data = pickle.load(f)
+    key, _ = _family_key(npz, coarser, quadrature)
+    if data["key"] != key:
+        raise ValueError(f"{path} was made from other runs or another quadrature than "
+                         f"{npz} with {list(coarser)}: delete it to rebuild")
+    family = data["family"]
+    d = np.asarray(family.distances(parabolic_pieces(coarser[0])[0]), dtype=float)
+    if not np.allclose(d, data["check"], rtol=1e-12, atol=0.0):
+        raise ValueError(f"{path}: the saved family's distances differ from those saved "
+                         "with it: delete it to rebuild")
+    logging.getLogger("fracfem_workflow").info(
+        "reference family of %d runs read from %s: consecutive distances %s",
+        len(family.references), path, ", ".join(f"{x:.4g}" for x in family.steps))
+    return family, data["s"]
 
 
 def family_error(family, pieces) -> dict:
