@@ -32,10 +32,17 @@ def start(cmd):
                             stderr=subprocess.DEVNULL, start_new_session=True)
 
 
+def result_rows(tmp_path):
+    """The finished runs' rows (not a writer's temporary file: pathlib's * matches
+    hidden names)."""
+    return sorted(f for f in (tmp_path / "res").glob("ex1/*/*/*.csv")
+                  if not f.name.startswith(".tmp-"))
+
+
 def wait_for_rows(tmp_path, n, proc, timeout=240):
     t0 = time.time()
     while time.time() - t0 < timeout:
-        rows = sorted((tmp_path / "res").glob("ex1/*/*/*.csv"))
+        rows = result_rows(tmp_path)
         if len(rows) >= n:
             return rows
         assert proc.poll() is None, "pipeline ended before it could be interrupted"
@@ -59,6 +66,8 @@ def check_results_intact(tmp_path, temporaries=True):
     leftovers = list((tmp_path / "res").rglob(".tmp-*")) + list((tmp_path / "out").rglob(".tmp-*"))
     assert not temporaries or leftovers == [], f"temporary files left behind: {leftovers}"
     for f in (tmp_path / "res").rglob("*.csv"):
+        if f.name.startswith(".tmp-"):           # a killed writer's, never a result
+            continue
         df = pd.read_csv(f)                      # parses: not truncated
         assert len(df) >= 1 and "git_commit" in df.columns   # provenance present
 
@@ -81,7 +90,7 @@ def test_interrupted_pipeline_restarts_cleanly(tmp_path, sig):
                           text=True, timeout=300).stdout
     planned = {path.strip() for line in plan.splitlines() if line.strip().startswith("output:")
                for path in line.split("output:", 1)[1].split(",")}
-    rows = sorted((tmp_path / "res").glob("ex1/*/*/*.csv"))
+    rows = result_rows(tmp_path)
     finished = [f for f in rows if str(f.relative_to(tmp_path)) not in planned]
     assert len(finished) >= 2, (rows, plan[-2000:])
     stamps = {f: f.stat().st_mtime_ns for f in finished}
