@@ -413,6 +413,45 @@ def test_time_split_page_fits_each_refinement_through_the_passes_above_the_margi
     assert "-0.323" in page and "1 − (e(τ/16)/e)²" in page
 
 
+def test_time_split_page_adds_the_graded_series_in_the_order_of_its_dofs():
+    """The graded runs (tags whose alphabetical order is not their size's) get their own
+    rates per m, fitted against each run's own space-time DOFs in order of size, and the
+    share of e² removed by τ/16; each run's own uncertainty bounds its fit."""
+    split = script("para_time_split")
+    passes = pd.DataFrame([{"pass": p, "m": m, "spacetime_dofs": 1e3 * 4 ** p * m,
+                            "steps": 5 * m, "dofs": 100, "error": 0.5 * 4.0 ** (-0.25 * p),
+                            "reference_error": 0.01} for p in range(3) for m in (1, 4, 16)])
+    N = {"h0.4": 1e3, "h0.2": 4e3, "h0.1": 3e4}
+    rows = []
+    for tag, n in N.items():
+        S, T = 0.2 * (n / 1e3) ** -0.4, 0.3 * (n / 1e3) ** -0.1   # a slow time part
+        for m in (1, 4, 16):
+            rows.append({"tag": tag, "m": m, "tau_factor": 0.5, "spacetime_dofs": n * m,
+                         "steps": 8 * m, "dofs": 132, "error": np.hypot(S, T / m),
+                         "reference_error": 0.03 if tag == "h0.1" and m == 16 else 1e-3})
+    graded = pd.DataFrame(rows)
+    page = split.report(passes, None, [1, 4, 16], graded=graded, paper_graded=-0.325)
+    tables = [[[c.strip() for c in ln.strip().strip("|").split("|")] for ln in block]
+              for block in (b.splitlines() for b in page.split("\n\n"))
+              if block and block[0].startswith("| ")]
+    assert len(tables) == 4 and "-0.325" in page
+    (head, _, *fits), (head2, _, *runs) = tables[2:]
+    fits = {r[0]: dict(zip(head, r)) for r in fits}
+    runs = [dict(zip(head2, r)) for r in runs]
+    assert [r["tag"] for r in runs] == ["h0.4", "h0.2", "h0.1"]
+    n = np.array(list(N.values()))
+    for m, label in ((1, "as the run"), (16, "16× (τ/16)")):
+        e = graded[graded.m == m].error.to_numpy()
+        keep = e > 3 * graded[graded.m == m].reference_error.to_numpy()
+        assert fits[label]["fitted tag"] == ", ".join(np.array(list(N))[keep])
+        slope = np.polyfit(np.log(n[keep]), np.log(e[keep]), 1)[0]
+        assert float(fits[label]["rate"]) == pytest.approx(slope, abs=5e-4)
+    assert fits["16× (τ/16)"]["fitted tag"] == "h0.4, h0.2"       # h0.1 within 3× its bound
+    assert float(fits["16× (τ/16)"]["rate"]) < float(fits["as the run"]["rate"]) - 0.1
+    e1, e16 = (graded[(graded.tag == "h0.1") & (graded.m == m)].error.iloc[0] for m in (1, 16))
+    assert float(runs[2]["1 − (e(τ/16)/e)²"]) == pytest.approx(1 - (e16 / e1) ** 2, rel=1e-3)
+
+
 def test_rate_explanations_cite_only_the_time_split_tables_made():
     """The rate table explains a parabolic adaptive row by its time-split table only where
     parabolic.time_split.problems makes that table; otherwise by the reference alone."""

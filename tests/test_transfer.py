@@ -211,6 +211,14 @@ def test_reference_family_distances_match_one_reference_per_member():
     assert fam.shared_members(pieces) == [1]
     copy = type(mid)(mid.p.copy(), mid.t.copy())
     assert fam.shared_members([(a, b, copy, x) for a, b, _, x in pieces]) == [1]
+    # the same triangles in another order, their vertices too (a mesh made by refinement
+    # keeps its own order; one read back through MeshTri has each triangle's sorted)
+    shuffled = type(mid)(mid.p.copy(), mid.t[[1, 2, 0]][:, ::-1].copy(), sort_t=False)
+    assert not np.array_equal(shuffled.t, mid.t)
+    assert fam.shared_members([(a, b, shuffled, x) for a, b, _, x in pieces]) == [1]
+    other = type(mid)(mid.p.copy(), mid.t.copy(), sort_t=False)
+    other.t[:, 0] = [other.t[0, 0], other.t[1, 0], other.t[1, 1]]   # one triangle changed
+    assert fam.shared_members([(a, b, other, x) for a, b, _, x in pieces]) == []
     assert fam.shared_members(run(coarse, [0, 1])) == [0]
     assert fam.shared_members(run(refine_disk(mid, [0]), [0, 1])) == []
     assert fam.distances(members[-1])[-1] == 0.0      # the finest member to itself

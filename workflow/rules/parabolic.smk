@@ -435,8 +435,9 @@ rule ex5_uniform_cause:
         "../scripts/ex5_uniform_cause.py"
 
 
-# How much of Algorithm C's error is the time discretisation's: its passes solved again on
-# their own space-time meshes with m times the time steps (fracfem.solve_slabs)
+# How much of Algorithm C's error, and of the graded series', is the time discretisation's:
+# its passes solved again on their own space-time meshes with m times the time steps
+# (fracfem.solve_slabs), the graded runs on their meshes with m times theirs
 rule para_time_split:
     input:
         ref=para_reference,
@@ -464,6 +465,9 @@ rule para_time_split:
         max_spacetime_dofs=PARA["time_split"]["max_spacetime_dofs"],
         max_iterations=PARA["adaptive"]["max_iterations"],
         refinements=PARA["time_split"]["refinements"],
+        graded_h=PARA["graded_h"],
+        grading=GRADING,
+        graded_tau_factor=PARA["tau_factor"]["graded"],
         operator=PARA["adaptive"]["operator"],
         tol=SOLVER["tol"],
         quadrature=PARA_QUADRATURE,

@@ -96,8 +96,8 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
          coarser=(), family=None):
     """problem: the run's name; example, data: fracfem.example(example, **data); ref: the
     reference run the errors are measured against, coarser: the coarser runs of its family
-    (family: para_reference_family's file of them, read instead of built)
-    (coarsest first; the error is the distance to the family's limit, runs.family_error);
+    (coarsest first; the error is the distance to the family's limit, runs.family_error),
+    family: para_reference_family's file of them (read instead of built);
     operator: each slab's stiffness ('dense', 'compressed', 'auto'); ref_operator: the reference's operator, saved by
     para_reference_operator (None: assembled here); checkpoint: the file each pass that
     does not end the run is saved to, and continued from when the job starts again

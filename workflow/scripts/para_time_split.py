@@ -1,7 +1,8 @@
 """How much of Algorithm C's error is the time discretisation's: each pass solved again on
 its own space-time mesh with m times the time steps of every slab, the space meshes kept
-(fracfem.solve_slabs).  One change (τ → τ/m): what the error loses is the time steps'
-part; what remains is the space meshes' part plus τ/m's own.  Like every error here, it
+(fracfem.solve_slabs); and the same for the graded series, each run solved again on its
+mesh with m times its uniform time steps.  One change (τ → τ/m): what the error loses is
+the time steps' part; what remains is the space meshes' part plus τ/m's own.  Like every error here, it
 is the distance to the limit of the reference's family with its measured uncertainty,
 which the fits' 3× rule keeps in view (runs.family_error).
 """
@@ -11,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 import fracfem as ff
+from fracfem.meshes import mesh_size
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import (fit_mask, local_slopes, masked_rate, paper_rate,
@@ -24,8 +26,11 @@ CACHE_BYTES = "1G"
 
 def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
          max_iterations, refinements, tol, quadrature, ref, errors, csv, md, log=None,
-         threads=None, operator="dense", ref_operator=None, coarser=(), family=None):
-    """refinements: the factors m (1 is always included: the pass itself); ref: the
+         threads=None, operator="dense", ref_operator=None, coarser=(), family=None,
+         graded_h=(), grading=2.0, graded_tau_factor=0.5):
+    """refinements: the factors m (1 is always included: the pass itself); graded_h,
+    grading, graded_tau_factor: the graded series (its runs' errors are errors.csv's),
+    solved again on its meshes with m× its time steps (none: graded_h empty); ref: the
     reference run, coarser: the coarser runs of its family (family: para_reference_family's
     file of them, read instead of built); errors: the problem's
     errors.csv (the reference run's own error, where an error's uncertainty is not measured);
@@ -72,25 +77,76 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
                    callback=record, keep_steps=True, solver_options={"tol": tol})
     df = pd.DataFrame(rows)
     df = with_fit_bound(df.assign(reference_error=ref_error))
-    write_table(with_provenance(df.assign(**parameter_columns(
-        quadrature=quad, T=T, theta=theta, c_tau=c_tau, start_level=start_level,
-        solver="pdas", tol=tol, operator=operator, refinements=refinements,
-        data=data))), csv)
-    paper = paper_rate(int(example[2:]), "adaptive", s, problem[4:] if example == "ex4" else "")
+    graded = graded_series(make, ex, known, graded_h, grading, graded_tau_factor, T,
+                           refinements, tol, reference, problem)
+    graded = with_fit_bound(graded.assign(reference_error=ref_error)) if len(graded) \
+        else graded
+    write_table(with_provenance(pd.concat(
+        [df.assign(series="adaptive"), graded.assign(series="graded")],
+        ignore_index=True).assign(**parameter_columns(
+            quadrature=quad, T=T, theta=theta, c_tau=c_tau, start_level=start_level,
+            solver="pdas", tol=tol, operator=operator, refinements=refinements,
+            grading=grading, data=data))), csv)
+    variant = problem[4:] if example == "ex4" else ""
+    paper = paper_rate(int(example[2:]), "adaptive", s, variant)
     with atomic_path(md) as tmp:
         per_run = bool(df.error_uncertainty.notna().any())
-        tmp.write_text(report(df, None if per_run else ref_error, refinements, paper))
+        tmp.write_text(report(df, None if per_run else ref_error, refinements, paper,
+                              graded, paper_rate(int(example[2:]), "graded", s, variant)))
 
 
-def report(df, ref_error, refinements, paper=None) -> str:
-    """The Markdown page: per pass the error with τ and with τ/m, the share of e² that
-    the time refinement removes, local slopes against the pass's space-time DOFs, and
-    the rates over the passes above 3× the reference's own error (ref_error; None: each
-    error's own uncertainty, the column ``reference_error``)."""
-    wide = df.pivot(index="pass", columns="m", values="error")
-    bound = (df.pivot(index="pass", columns="m", values="reference_error")
+def graded_series(make, ex, known, graded_h, grading, tau_factor, T, refinements, tol,
+                  reference, problem):
+    """The graded runs (errors.csv's rows: m = 1) and the same meshes solved again with m
+    times their time steps, measured against the reference's family (runs.family_error)."""
+    rows = []
+    runs = known[known.family == "graded"] if "family" in known else known.iloc[:0]
+    for h in graded_h:
+        tag = ff.series_tag("graded", h)
+        row = runs[runs.tag == tag]
+        if row.empty:
+            raise ValueError(f"graded_h={list(graded_h)!r}: the errors table has no graded "
+                             f"run {tag} (it has {sorted(runs.tag)})")
+        row = row.iloc[0]
+        prob = make(ff.multiplier_mesh(tag, grading))
+        n = len(ff.time_grid(T=T, tau=ff.time_step(mesh_size(prob.fine), prob.disc.s,
+                                                     tau_factor))) - 1
+        if n != int(row.steps) or len(prob.disc.free) != int(row.dofs):
+            raise ValueError(f"graded run {tag}: {int(row.dofs)} DOFs × {int(row.steps)} "
+                             f"steps in the errors table, {len(prob.disc.free)} × {n} with "
+                             f"grading={grading:g}, tau_factor={tau_factor:g}")
+        for m in refinements:
+            t0 = time.perf_counter()
+            if m == 1:
+                measured = {k: float(row[k]) for k in
+                            ("error", "error_uncertainty", "error_vs_reference")}
+            else:
+                times = np.linspace(0.0, T, n * m + 1)
+                steps = ff.time_steps(ff.Stepper(prob), ex.initial_value, times,
+                                      solver="pdas", solver_options={"tol": tol})
+                pieces = [(st.t - st.tau, st.t, prob.fine, st.u) for st in steps
+                          if st.k > 0]
+                measured = family_error(reference, pieces)
+            rows.append({"problem": problem, "tag": tag, "m": m, "tau_factor": tau_factor,
+                         "spacetime_dofs": int(row.dofs) * n * m, "steps": n * m,
+                         "dofs": int(row.dofs), **measured,
+                         "t_resolve": time.perf_counter() - t0 if m > 1 else np.nan})
+            logger.info("graded %s, m = %d: %d steps, error %.4e", tag, m, n * m,
+                        measured["error"])
+    return pd.DataFrame(rows)
+
+
+def _split(df, key, refinements, ref_error):
+    """(fits, table) of one series solved with m× the time steps: per run (``key``, in
+    the order of its own space-time DOFs) the error with τ and with τ/m, local slopes
+    against the run's own space-time DOFs, and the rate of each m over the runs whose error
+    exceeds 3× the reference's own error (ref_error; None: each error's own bound, the
+    column ``reference_error``)."""
+    own = df[df.m == 1].set_index(key).sort_values("spacetime_dofs")
+    order = own.index
+    wide = df.pivot(index=key, columns="m", values="error").loc[order]
+    bound = (df.pivot(index=key, columns="m", values="reference_error").loc[order]
              if ref_error is None else None)
-    own = df[df.m == 1].set_index("pass")
     out = own[["spacetime_dofs", "steps", "dofs"]].astype(int)
     rates = []
     for m in refinements:
@@ -99,27 +155,47 @@ def report(df, ref_error, refinements, paper=None) -> str:
         out[f"local slope (τ/{m})" if m > 1 else "local slope"] = local_slopes(
             out.spacetime_dofs, e, np.zeros(len(e))).to_numpy()
         keep = fit_mask(e, ref_error if bound is None else bound[m])
-        rates.append({"time steps": "as the pass" if m == 1 else f"{m}× (τ/{m})",
+        rates.append({"time steps": "as the run" if m == 1 else f"{m}× (τ/{m})",
                       "rate": masked_rate(out.spacetime_dofs, e, keep),
-                      "n_points": int(keep.sum()), "fitted passes": ", ".join(
+                      "n_points": int(keep.sum()), f"fitted {key}": ", ".join(
                           str(p) for p in np.asarray(e.index)[keep])})
     m_max = max(refinements)
     if m_max > 1:
         out[f"1 − (e(τ/{m_max})/e)²"] = 1 - (wide[m_max] / wide[1]) ** 2
+    return pd.DataFrame(rates), out.reset_index()
+
+
+def report(df, ref_error, refinements, paper=None, graded=None, paper_graded=None) -> str:
+    """The Markdown page: Algorithm C's passes (df) and, if given, the graded series
+    (graded: rows with ``tag``) each with τ and with τ/m (:func:`_split`); ref_error: the
+    reference's own error bounding every fit (None: each error's own uncertainty, the
+    column ``reference_error``); paper, paper_graded: the paper's adaptive and graded
+    rates."""
+    fits, out = _split(df, "pass", refinements, ref_error)
+    fits = fits.rename(columns={"fitted pass": "fitted passes"})
+    fits["time steps"] = fits["time steps"].replace({"as the run": "as the pass"})
     head = ("Algorithm C's passes solved again on their own space-time meshes with m times "
             "the time steps of every slab (the space meshes unchanged), "
             + (f"errors against the reference (its own error {ref_error:.3g}); rates against "
                "the pass's space-time DOFs over the passes whose error exceeds 3× the "
-               "reference's" if bound is None else
+               "reference's" if ref_error is not None else
                "errors: the distance to the limit of the reference's family "
                "(extrapolated); rates against the pass's space-time DOFs over the passes "
                "whose error exceeds 3× its measured uncertainty"))
     if paper is not None:
         head += f"; the paper's adaptive rate is {paper:g}"
-    return (head + ".\n\n" + pd.DataFrame(rates).to_markdown(index=False, floatfmt=".3f")
-            + "\n\n" + _ints_as_ints(out.reset_index()).to_markdown(index=False,
-                                                                        floatfmt=".4g")
-            + "\n")
+    text = (head + ".\n\n" + fits.to_markdown(index=False, floatfmt=".3f")
+            + "\n\n" + _ints_as_ints(out).to_markdown(index=False, floatfmt=".4g") + "\n")
+    if graded is not None and len(graded):
+        gfits, gout = _split(graded, "tag", refinements, ref_error)
+        text += ("\nThe graded series solved again on the same meshes with m times its time "
+                 "steps (τ = " + f"{graded.tau_factor.iloc[0]:g}" + " h_max^(2s) as the run), "
+                 "measured and fitted alike, rates against the run's own space-time DOFs"
+                 + (f"; the paper's graded rate is {paper_graded:g}"
+                    if paper_graded is not None and np.isfinite(paper_graded) else "")
+                 + ".\n\n" + gfits.to_markdown(index=False, floatfmt=".3f") + "\n\n"
+                 + _ints_as_ints(gout).to_markdown(index=False, floatfmt=".4g") + "\n")
+    return text
 
 
 def _ints_as_ints(df):
@@ -134,4 +210,5 @@ if __name__ == "__main__":
          sm.params.max_spacetime_dofs, sm.params.max_iterations, sm.params.refinements,
          sm.params.tol, sm.params.quadrature, sm.input.ref, sm.input.errors, sm.output.csv,
          sm.output.md, sm.log[0], sm.threads, sm.params.operator, sm.input.operator,
-         list(sm.input.coarser), sm.input.get("family"))
+         list(sm.input.coarser), sm.input.get("family"), sm.params.graded_h,
+         sm.params.grading, sm.params.graded_tau_factor)
