@@ -465,6 +465,11 @@ def test_rate_explanations_cite_only_the_time_split_tables_made():
     assert "`ex4-u2-time-split.md`" in made[1] and "ex4-u1" not in made[1]
     assert "`ex5-time-split.md`" in made[2]
     assert not any("time-split" in line for line in rates.differences(rows))
+    graded = rows.assign(family="graded", paper_rate=[-0.325, -0.325, -0.322])
+    made = rates.differences(graded, time_split=["ex4-u2", "ex5"])
+    assert "not explained yet" in made[0]
+    assert "`ex4-u2-time-split.md` solves each graded run again" in made[1]
+    assert "`ex5-time-split.md` solves each graded run again" in made[2]
 
 
 def test_pipeline_cost_sums_the_jobs_of_all_and_reads_gnu_time(tmp_path):

@@ -234,19 +234,23 @@ GROUPS = [
         "t_error_pass": "seconds to measure the pass's error against the reference run "
                         "(in neither `t_total` nor `t_wall`)",
     }),
-    ("Time split of Algorithm C's error (`<problem>-time-split.md`)", False, {
-        "time steps": "each pass with its own time steps, or with m times as many on every "
-                      "slab (τ/m), the space meshes unchanged",
+    ("Time split of Algorithm C's and the graded series' errors (`<problem>-time-split.md`)",
+     False, {
+        "time steps": "each pass (graded run) with its own time steps, or with m times as "
+                      "many on every slab (τ/m), the space meshes unchanged",
         "fitted passes": "the passes in the fit (error above 3× `reference_error`)",
+        "fitted tag": "the graded runs in the fit (error above 3× its uncertainty)",
         "pass": "pass of Algorithm C; `spacetime_dofs`, `steps`, `dofs` are its own (m = 1)",
-        ("error (τ/4)", "error (τ/16)"): "`error` of the pass's space meshes with m = 4, 16 "
-                                         "times the time steps",
+        ("error (τ/4)", "error (τ/16)"): "`error` of the pass's (graded run's) space meshes "
+                                         "with m = 4, 16 times the time steps",
         ("local slope (τ/4)", "local slope (τ/16)"): "`local slope` of that error against "
-                                                     "the pass's `spacetime_dofs`",
-        "1 − (e(τ/16)/e)²": "the part of the pass's squared error that refining its time "
-                            "steps 16-fold removes",
+                                                     "the pass's (run's) `spacetime_dofs`",
+        "1 − (e(τ/16)/e)²": "the part of the pass's (run's) squared error that refining its "
+                            "time steps 16-fold removes",
         "m": "`time-split.csv`: the factor of the time steps (1: the pass itself)",
         "pass_spacetime_dofs": "`time-split.csv`: the pass's own `spacetime_dofs`",
+        "series": "`time-split.csv`: `adaptive` (a pass of Algorithm C) or `graded` (a run "
+                  "of the graded series)",
         "t_resolve": "`time-split.csv`: seconds to solve and estimate the pass again with m "
                      "times the steps (m = 1: the pass's own time)",
     }),
