@@ -136,12 +136,12 @@ def graded_series(make, ex, known, graded_h, grading, tau_factor, T, refinements
     return pd.DataFrame(rows)
 
 
-def _split(df, key, refinements, ref_error):
+def _split(df, key, refinements, ref_error, itself="as the run", fitted="fitted tag"):
     """(fits, table) of one series solved with m× the time steps: per run (``key``, in
     the order of its own space-time DOFs) the error with τ and with τ/m, local slopes
     against the run's own space-time DOFs, and the rate of each m over the runs whose error
     exceeds 3× the reference's own error (ref_error; None: each error's own bound, the
-    column ``reference_error``)."""
+    column ``reference_error``); itself, fitted: the labels of m = 1 and of the fitted runs."""
     own = df[df.m == 1].set_index(key).sort_values("spacetime_dofs")
     order = own.index
     wide = df.pivot(index=key, columns="m", values="error").loc[order]
@@ -155,9 +155,9 @@ def _split(df, key, refinements, ref_error):
         out[f"local slope (τ/{m})" if m > 1 else "local slope"] = local_slopes(
             out.spacetime_dofs, e, np.zeros(len(e))).to_numpy()
         keep = fit_mask(e, ref_error if bound is None else bound[m])
-        rates.append({"time steps": "as the run" if m == 1 else f"{m}× (τ/{m})",
+        rates.append({"time steps": itself if m == 1 else f"{m}× (τ/{m})",
                       "rate": masked_rate(out.spacetime_dofs, e, keep),
-                      "n_points": int(keep.sum()), f"fitted {key}": ", ".join(
+                      "n_points": int(keep.sum()), fitted: ", ".join(
                           str(p) for p in np.asarray(e.index)[keep])})
     m_max = max(refinements)
     if m_max > 1:
@@ -171,9 +171,7 @@ def report(df, ref_error, refinements, paper=None, graded=None, paper_graded=Non
     reference's own error bounding every fit (None: each error's own uncertainty, the
     column ``reference_error``); paper, paper_graded: the paper's adaptive and graded
     rates."""
-    fits, out = _split(df, "pass", refinements, ref_error)
-    fits = fits.rename(columns={"fitted pass": "fitted passes"})
-    fits["time steps"] = fits["time steps"].replace({"as the run": "as the pass"})
+    fits, out = _split(df, "pass", refinements, ref_error, "as the pass", "fitted passes")
     head = ("Algorithm C's passes solved again on their own space-time meshes with m times "
             "the time steps of every slab (the space meshes unchanged), "
             + (f"errors against the reference (its own error {ref_error:.3g}); rates against "

@@ -65,18 +65,16 @@ GRADED_SPLIT = ("{table} solves each graded run again on its mesh with more time
 def reason(r, time_split=()):
     """Why row r's rate can differ from the paper's; time_split: the parabolic problems
     whose time-split tables the configuration makes."""
-    if r.family == "adaptive" and r.example in TIME_SPLIT:
+    if r.family in ("adaptive", "graded") and r.example in TIME_SPLIT:
         variant = r.variant if isinstance(r.variant, str) else ""
         problem = f"ex{r.example}" + (f"-{variant}" if variant else "")
+        table = f"`{problem}-time-split.md`"
+        if r.family == "adaptive":
+            return (TIME_SPLIT[r.example].format(table=table,
+                                                 algorithm=f"`{problem}-algorithm-c.md`")
+                    if problem in time_split else REF_PARA)
         if problem in time_split:
-            return TIME_SPLIT[r.example].format(table=f"`{problem}-time-split.md`",
-                                                algorithm=f"`{problem}-algorithm-c.md`")
-        return REF_PARA
-    if r.family == "graded" and r.example in TIME_SPLIT:
-        variant = r.variant if isinstance(r.variant, str) else ""
-        problem = f"ex{r.example}" + (f"-{variant}" if variant else "")
-        if problem in time_split:
-            return GRADED_SPLIT.format(table=f"`{problem}-time-split.md`")
+            return GRADED_SPLIT.format(table=table)
     return REASONS.get((r.example, r.family), "not explained yet")
 
 
