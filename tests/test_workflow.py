@@ -255,12 +255,13 @@ def test_rate_table_reads_another_tiers_elliptic_table_until_its_full_one_exists
     ({"graded-sr": 3}, {"uniform": "L5", "graded": "h0.05", "graded-sr": "r0.2"}),
     ({"uniform": 1, "graded": 1, "graded-sr": 1},
      {"uniform": "L6", "graded": "h0.025", "graded-sr": "r0.1"}),
-    ({"graded": 4}, {"uniform": "L5", "graded": "h0.2", "graded-sr": "r0.14"}),
+    ({"graded": 4}, {"uniform": "L5", "graded": "h0.2", "graded-sr": "r0.2"}),
+    ({"graded-sr": 2}, {"uniform": "L5", "graded": "h0.05", "graded-sr": "r0.14"}),
 ])
 def test_quadrature_check_mesh(tmp_path, choice, checked):
     """example1.quadrature_check gives per family the rank (from the finest) of the run the
     quadrature check repeats; a family the extra configuration does not name keeps
-    config.yaml's rank (2: the second finest)."""
+    config.yaml's rank (2: the second finest; 3 for the shape-regular graded-sr)."""
     import yaml
     cfg = tmp_path / "q.yaml"
     cfg.write_text(yaml.safe_dump({"example1": {"quadrature_check": choice},

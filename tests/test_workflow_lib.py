@@ -170,3 +170,32 @@ def test_atomic_write_removes_its_targets_stale_temporary_files(tmp_path):
     assert not stale.exists() and other.exists()
     assert pd.read_csv(tmp_path / "x.csv").a.tolist() == [1]
     assert sorted(p.name for p in tmp_path.iterdir()) == [".tmp-y.csv-run1ng.csv", "x.csv"]
+
+
+def test_solved_pieces_reproduce_a_run_stored_by_para_solve(tmp_path):
+    """A run solved again in a script (solved_pieces, as para_time_split and
+    ex5_uniform_cause do) gives the pieces that para_solve stores for the same run: the
+    same time intervals, the same mesh and the same u_k."""
+    import importlib.util
+    from pathlib import Path
+
+    from fracfem.meshes import mesh_size
+    from fracfem_workflow.runs import solved_pieces
+    path = Path(__file__).parents[1] / "workflow" / "scripts" / "para_solve.py"
+    spec = importlib.util.spec_from_file_location("para_solve", path)
+    para_solve = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(para_solve)
+    quad, data = {}, {"s": 0.5, "u0": 2.0}
+    npz = tmp_path / "run.npz"
+    para_solve.main("ex4-u2", "uniform", "L2", "ex4", data, 2.0, 0.3, 0.5, 1e-10, quad,
+                    tmp_path / "row.csv", npz)
+    stored, _ = parabolic_pieces(npz)
+    prob = ff.example("ex4", **data).problem(ff.multiplier_mesh("L2", 2.0),
+                                             ff.QuadratureOptions(**quad), operator="dense")
+    times = ff.time_grid(T=0.3, tau=ff.time_step(mesh_size(prob.fine), 0.5, 0.5))
+    again = solved_pieces(prob, ff.example("ex4", **data).initial_value, times, 1e-10)
+    assert len(again) == len(stored) == len(times) - 1 >= 2
+    for (a0, a1, am, au), (b0, b1, bm, bu) in zip(again, stored):
+        assert (a0, a1) == pytest.approx((b0, b1), abs=1e-15)
+        np.testing.assert_array_equal(am.p, bm.p)
+        np.testing.assert_allclose(au, bu, rtol=0, atol=1e-13 * np.abs(bu).max())

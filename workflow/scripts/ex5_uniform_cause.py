@@ -21,7 +21,8 @@ from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import (REFERENCE_MARGIN, fit_mask, fit_rate, geometric_tail,
                                      local_slopes, masked_rate)
-from fracfem_workflow.runs import family_error, parabolic_pieces, parameter_columns, start
+from fracfem_workflow.runs import (family_error, parabolic_pieces, parameter_columns,
+                                   solved_pieces, start)
 
 logger = script_logger("ex5_uniform_cause")
 
@@ -33,10 +34,7 @@ def run(ex, u0, tag, grading, T, tau_factor, tol, quad, operators):
                       stiffness=operators.get(tag))
     operators.setdefault(tag, prob.disc)
     times = ff.time_grid(T=T, tau=ff.time_step(mesh_size(prob.fine), prob.disc.s, tau_factor))
-    steps = list(ff.time_steps(ff.Stepper(prob), u0, times, solver="pdas",
-                               solver_options={"tol": tol}))
-    pieces = [(st.t - st.tau, st.t, prob.fine, st.u) for st in steps[1:]]
-    return pieces, prob.disc.A, prob.disc.free
+    return solved_pieces(prob, u0, times, tol), prob.disc.A, prob.disc.free
 
 
 def stored(npz, tag, ex, grading, quad, operators):

@@ -17,7 +17,8 @@ from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import (fit_mask, local_slopes, masked_rate, paper_rate,
                                      with_fit_bound)
-from fracfem_workflow.runs import family_error, parameter_columns, start, stored_family
+from fracfem_workflow.runs import (family_error, parameter_columns, solved_pieces, start,
+                                   stored_family)
 
 logger = script_logger("para_time_split")
 # the re-solves' own cache, beside Algorithm C's (which keeps its default)
@@ -122,11 +123,8 @@ def graded_series(make, ex, known, graded_h, grading, tau_factor, T, refinements
                             ("error", "error_uncertainty", "error_vs_reference")}
             else:
                 times = np.linspace(0.0, T, n * m + 1)
-                steps = ff.time_steps(ff.Stepper(prob), ex.initial_value, times,
-                                      solver="pdas", solver_options={"tol": tol})
-                pieces = [(st.t - st.tau, st.t, prob.fine, st.u) for st in steps
-                          if st.k > 0]
-                measured = family_error(reference, pieces)
+                measured = family_error(reference, solved_pieces(prob, ex.initial_value,
+                                                                 times, tol))
             rows.append({"problem": problem, "tag": tag, "m": m, "tau_factor": tau_factor,
                          "spacetime_dofs": int(row.dofs) * n * m, "steps": n * m,
                          "dofs": int(row.dofs), **measured,

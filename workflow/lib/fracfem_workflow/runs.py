@@ -250,6 +250,16 @@ def load_reference_operator(path, pieces, s, quadrature):
     return data["A"], np.asarray(data["free"])
 
 
+def solved_pieces(prob, u0, times, tol):
+    """[(t_{k−1}, t_k, mesh, u_k)] of one DG(0) run of prob on its fine mesh over the time
+    grid times (k = 1 … M; the PDAS solver to tol), as parabolic_pieces gives a stored one."""
+    import fracfem as ff
+
+    steps = ff.time_steps(ff.Stepper(prob), u0, times, solver="pdas",
+                          solver_options={"tol": tol})
+    return [(st.t - st.tau, st.t, prob.fine, st.u) for st in steps if st.k > 0]
+
+
 def parabolic_pieces(npz):
     """[(t_{k−1}, t_k, mesh, u_k)] of a stored parabolic run, and the loaded file."""
     from skfem import MeshTri
