@@ -83,3 +83,10 @@ rule all:
         expand(rules.thin_demo.output, kind=["obstacle", "friction"]),
         rules.results_page.output,
     default_target: True
+
+
+onsuccess:
+    # the dense operators kept while the run lasted (common.smk): a means, not a result
+    if OPERATOR_CACHE:
+        import shutil
+        shutil.rmtree(OPERATOR_CACHE, ignore_errors=True)

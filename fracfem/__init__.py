@@ -19,6 +19,7 @@ from .assembly import (QuadratureOptions, energy, exterior_kernel, load_vector,
 from .exact import (c2s, disk_energy, disk_solution, disk_solution_constant,
                     heat_error, heat_solution, heat_source)
 from .laplace import Discretisation, discretise, solve_laplace
+from .opcache import operator_cache
 from .compressed import CompressedOperator, stiffness_operator
 from .krylov import pcg
 from .memory import DenseMemoryError
@@ -59,7 +60,7 @@ __all__ = [
     # the fractional Laplacian: assembly, exact solutions, the unconstrained problem
     "QuadratureOptions", "stiffness_matrix", "load_vector", "energy", "exterior_kernel",
     "c2s", "disk_energy", "disk_solution", "disk_solution_constant",
-    "Discretisation", "discretise", "solve_laplace", "DenseMemoryError",
+    "Discretisation", "discretise", "solve_laplace", "operator_cache", "DenseMemoryError",
     # the compressed operator and its solvers
     "stiffness_operator", "CompressedOperator", "pcg", "multilevel_preconditioner",
     # obstacle and friction problems in mixed form (Problem 5.15) and their solvers

@@ -13,6 +13,8 @@ from .assembly import QuadratureOptions, dense_bytes, load_vector, stiffness_mat
 from .compressed import DEFAULT_TOL, stiffness_operator
 from .krylov import pcg
 from .memory import check_dense, memory_limit
+from .exact import check_s
+from .opcache import dense_free_block
 from .meshes import validates
 from .preconditioners import multilevel_preconditioner
 
@@ -85,7 +87,15 @@ def discretise(mesh, s: float, f=1.0, *, quadrature: QuadratureOptions | None = 
     The mesh is checked once (:func:`fracfem.meshes.validate_mesh`).
     stiffness: a Discretisation of this mesh and s made before (other data f): its
     operator is reused instead of assembled, and only the load is computed.
+    With an operator cache (:mod:`fracfem.opcache`: :func:`fracfem.operator_cache` or
+    ``$FRACFEM_OPERATOR_CACHE``) a dense matrix assembled before with the same mesh, s,
+    quadrature and code is read back instead (``info['cache']``: 'hit' or 'miss'); its
+    ``timings['assembly']`` stays the seconds of the assembly.
     """
+    s = check_s(s)
+    if quadrature is not None and not isinstance(quadrature, QuadratureOptions):
+        raise ValueError(f"quadrature={quadrature!r} must be a fracfem.QuadratureOptions "
+                         "or None (the default orders)")
     if operator not in OPERATORS:
         raise ValueError(f"operator={operator!r} must be one of {OPERATORS}")
     free = mesh.interior_nodes()
@@ -99,17 +109,22 @@ def discretise(mesh, s: float, f=1.0, *, quadrature: QuadratureOptions | None = 
             else "compressed"
     tim: dict = {}
     if operator == "dense":
-        A = stiffness_matrix(mesh, s, quadrature=quadrature, timings=tim)
-        Af = np.ascontiguousarray(A[np.ix_(free, free)])
-        del A
-        info = {"operator": "dense"}
+        def assemble():
+            A = stiffness_matrix(mesh, s, quadrature=quadrature, timings=tim)
+            return A, tim
+        Af, tim, cached = dense_free_block(mesh, s, free, quadrature or QuadratureOptions(),
+                                           assemble)
+        info = {"operator": "dense", **cached}
     else:
         Af = stiffness_operator(mesh, s, tol=tol, quadrature=quadrature)
         tim = Af.info["timings"]
         info = {"operator": "compressed", "tol": tol, "order": Af.info["order"],
                 "nbytes": Af.nbytes}
     b = load_vector(mesh, f, order=load_order)[free]
-    return Discretisation(mesh, float(s), free, Af, b, {"assembly": tim["total"]}, info)
+    timings = {"assembly": tim["total"]}
+    if "load" in tim:                      # read back from the operator cache
+        timings["operator_load"] = tim["load"]
+    return Discretisation(mesh, float(s), free, Af, b, timings, info)
 
 
 def solve_laplace(disc: Discretisation, *, tol: float = SOLVER_TOL,

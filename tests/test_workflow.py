@@ -279,3 +279,26 @@ def test_quadrature_check_rank_beyond_the_series_is_refused(tmp_path):
     assert code != 0
     assert "example1.quadrature_check.graded-sr=6 must be a rank from 1 (the finest) to 5" in text
 
+
+
+def test_jobs_needing_one_operator_assemble_it_once(tmp_path):
+    """Example 4's two initial values on one mesh: the second job reads the operator the
+    first assembled (fracfem.opcache), with the same matrix, so the same t_assembly and
+    solution; its t_wall still counts the assembly; the cache goes after the run."""
+    import numpy as np
+    import pandas as pd
+    res = tmp_path / "r"
+    targets = [f"{res}/para/{p}/uniform/L3.csv" for p in ("ex4-u1", "ex4-u2")]
+    out = subprocess.run(["snakemake", "--cores", "1", "--nolock", "--config",
+                          f"results_dir={res}", f"output_root={tmp_path}/o", "--", *targets],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stdout + out.stderr
+    logs = {p: (res / "logs" / "para" / f"{p}_uniform_L3.log").read_text()
+            for p in ("ex4-u1", "ex4-u2")}
+    assert sum("operator cache" in text and "read back" in text for text in logs.values()) == 1
+    rows = [pd.read_csv(t).iloc[0] for t in targets]
+    assert rows[0].t_assembly == rows[1].t_assembly > 0
+    assert min(r.t_wall for r in rows) > rows[0].t_assembly
+    assert not (res / "operators").exists()
+    u = [np.load(t.replace(".csv", ".npz"))["U"] for t in targets]
+    assert u[0].shape == u[1].shape and not np.allclose(u[0], u[1])   # two problems, one A

@@ -3,6 +3,7 @@
 # never writes over the committed paper figures).
 import hashlib
 import json
+import os
 from pathlib import Path
 from types import SimpleNamespace as Namespace
 
@@ -58,7 +59,8 @@ for _block in ("example1", "example2", "example3"):   # Example 1: the extrapola
 
 def _science(cfg):
     return {k: v for k, v in cfg.items()
-            if k not in ("output_root", "results_dir", "tier", "tiers", "job_threads")}
+            if k not in ("output_root", "results_dir", "tier", "tiers", "job_threads",
+                         "operator_cache")}
 
 
 def _fingerprint(cfg):
@@ -89,6 +91,23 @@ if OUT in _COMMITTED:
     if _fingerprint(config) != _fingerprint(_own):
         OUT = f"{RES}/custom-{_fingerprint(config)}/figures"
         logger.info(f"config differs from {_files}: figures go to {OUT}")
+
+# Dense operators that several jobs need (one mesh, s and quadrature: Example 3's two
+# variants, Example 4's two initial values, a reference family's member and its error) are
+# assembled by the first and read back by the others (fracfem.opcache, bit for bit the
+# same matrix; a job's time columns keep the assembly's seconds).  The directory lives
+# while the run does: removed when it succeeds.  A FRACFEM_OPERATOR_CACHE set beforehand
+# is used instead and kept; operator_cache: false turns it off.
+OPERATOR_CACHE = None
+if config.get("operator_cache", True) and "FRACFEM_OPERATOR_CACHE" not in os.environ:
+    OPERATOR_CACHE = f"{RES}/operators"
+    os.environ["FRACFEM_OPERATOR_CACHE"] = OPERATOR_CACHE
+
+# Which ready job starts first on few cores: the parabolic problems' jobs (their chains run
+# reference family → its error → Algorithm C → errors → time split, a quarter of an hour in
+# a row), then the other long single jobs, and the many short ones fill the end (in a run
+# without this order the last chain ran alone for minutes: pipeline-cost.md)
+PRIORITY = {"parabolic": 2, "long": 1}
 
 TIER = config.get("tier", "default")
 # threads of every job that computes (numba's parallel loops); 1 packs two jobs onto two

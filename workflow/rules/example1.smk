@@ -34,6 +34,7 @@ rule ex1_adaptive:
         max_steps=EX1["adaptive"]["max_steps"],
         quadrature=QUADRATURE,
         operator=EX1["adaptive"]["operator"],
+    priority: PRIORITY["long"]
     threads: JOB_THREADS
     conda:
         ENV
@@ -147,6 +148,7 @@ rule ex1_quadrature_check:
     params:
         grading=GRADING,
         quadrature=QUADRATURE,
+    priority: PRIORITY["long"]
     threads: JOB_THREADS
     conda:
         ENV

@@ -21,6 +21,7 @@ rule para_solve:
         tol=SOLVER["tol"],
         quadrature=PARA_QUADRATURE,
         operator=lambda w: PARA["reference"]["operator"] if w.family == "reference" else "dense",
+    priority: PRIORITY["parabolic"]
     threads: JOB_THREADS
     conda:
         ENV
@@ -53,6 +54,7 @@ rule para_reference_operator:
         problem="|".join(PARA_PROBLEMS),
     params:
         quadrature=PARA_QUADRATURE,
+    priority: PRIORITY["parabolic"]
     threads: JOB_THREADS
     conda:
         ENV
@@ -78,6 +80,7 @@ rule para_reference_family:
         problem="|".join(PARA_PROBLEMS),
     params:
         quadrature=PARA_QUADRATURE,
+    priority: PRIORITY["parabolic"]
     threads: JOB_THREADS
     conda:
         ENV
@@ -117,6 +120,7 @@ rule para_adaptive:
         # each pass that does not end the run; the job continues from it when started
         # again (a time limit, a lost machine), and removes it when done
         checkpoint=lambda wc: f"{RES}/para/{wc.problem}/adaptive/checkpoint.npz",
+    priority: PRIORITY["parabolic"]
     threads: JOB_THREADS
     conda:
         ENV
@@ -142,6 +146,7 @@ rule para_reference_error:
         problem="|".join(PARA_PROBLEMS),
     params:
         quadrature=PARA_QUADRATURE,
+    priority: PRIORITY["parabolic"]
     threads: JOB_THREADS
     conda:
         ENV
@@ -169,6 +174,7 @@ rule para_errors:
         problem="|".join(PARA_PROBLEMS),
     params:
         quadrature=PARA_QUADRATURE,
+    priority: PRIORITY["parabolic"]
     threads: JOB_THREADS
     conda:
         ENV
@@ -387,6 +393,7 @@ rule para_reference_check:
         f"{RES}/logs/para/reference_check.log",
     benchmark:
         f"{RES}/benchmarks/para/reference_check.tsv"
+    priority: PRIORITY["long"]
     threads: JOB_THREADS
     conda:
         ENV
@@ -428,6 +435,7 @@ rule ex5_uniform_cause:
         f"{RES}/logs/para/ex5_uniform_cause.log",
     benchmark:
         f"{RES}/benchmarks/para/ex5_uniform_cause.tsv"
+    priority: PRIORITY["long"]
     threads: JOB_THREADS
     conda:
         ENV
@@ -475,6 +483,7 @@ rule para_time_split:
         f"{RES}/logs/para/{{problem}}_time_split.log",
     benchmark:
         f"{RES}/benchmarks/para/{{problem}}_time_split.tsv"
+    priority: PRIORITY["parabolic"]
     threads: JOB_THREADS
     conda:
         ENV

@@ -184,6 +184,7 @@ rule vi_adaptive:
         quadrature=QUADRATURE,
         operator=config["vi_adaptive"]["operator"],
         family="adaptive",
+    priority: PRIORITY["long"]
     threads: JOB_THREADS
     conda:
         ENV

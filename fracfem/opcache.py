@@ -1,0 +1,154 @@
+"""A directory of assembled dense stiffness matrices: a program (or a pipeline of
+programs) that needs the same operator twice assembles it once.
+
+Off unless a directory is given, by :func:`operator_cache` or by the environment variable
+``FRACFEM_OPERATOR_CACHE``.  :func:`fracfem.discretise` then keeps the free-node block
+``A[free, free]`` of every dense matrix it assembles (``<key>.npy``) with the seconds its
+assembly took (``<key>.json``), and reads it back when the same operator is asked for
+again.  The key is a SHA-256 of everything the matrix depends on: the nodes, triangles
+and free nodes, s, the quadrature options, the number of parallel chunks of the far field
+(their sums differ in round-off) and the source of fracfem itself, so that an entry is
+only read back by the code that wrote it and the result is the matrix that would have
+been assembled, bit for bit.
+
+An entry is written under a temporary name and renamed: a reader sees a whole entry or
+none.  Two processes that miss at the same time both assemble and write the same bytes.
+An entry that cannot be read is assembled again.  The cache never deletes anything; a
+pipeline removes its directory when it is done with it.
+
+Usage::
+
+    with fracfem.operator_cache("results/operators"):
+        d1 = fracfem.discretise(mesh, 0.5, 1.0)     # assembled, kept
+        d2 = fracfem.discretise(mesh, 0.5, 0.0)     # read back: d2.info["cache"] == "hit"
+"""
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import hashlib
+import json
+import logging
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["operator_cache", "cache_directory", "ENV"]
+
+ENV = "FRACFEM_OPERATOR_CACHE"
+FORMAT = 1                       # bumped when an entry's layout changes
+
+logger = logging.getLogger(__name__)
+_override: list = []             # operator_cache's directories, innermost last
+_source: list = []               # the source hash, computed once
+
+
+def _checked(directory, name: str) -> Path:
+    path = Path(directory)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{name}={str(directory)!r} must be a directory (it is a file)")
+    return path
+
+
+def cache_directory() -> Path | None:
+    """The directory in use: the innermost :func:`operator_cache`, else
+    ``$FRACFEM_OPERATOR_CACHE``, else None (no cache)."""
+    if _override:
+        return _override[-1]
+    value = os.environ.get(ENV, "")
+    return _checked(value, ENV) if value else None
+
+
+@contextlib.contextmanager
+def operator_cache(directory):
+    """Keep and reuse dense operators in ``directory`` (created when needed) within the
+    ``with`` block; ``None`` turns the cache off there, whatever the environment says."""
+    path = None if directory is None else _checked(directory, "directory")
+    _override.append(path)
+    try:
+        yield path
+    finally:
+        _override.pop()
+
+
+def _source_hash() -> str:
+    if not _source:
+        h = hashlib.sha256()
+        for f in sorted(Path(__file__).parent.glob("*.py")):
+            h.update(f.name.encode())
+            h.update(f.read_bytes())
+        _source.append(h.hexdigest())
+    return _source[0]
+
+
+def entry_key(p, t, free, s, quadrature, nchunks) -> str:
+    """SHA-256 of what the free-node block of the dense matrix depends on."""
+    h = hashlib.sha256()
+    h.update(f"fracfem-operator {FORMAT} {_source_hash()} ".encode())
+    for a in (np.ascontiguousarray(p, dtype=np.float64), np.ascontiguousarray(t, dtype=np.int64),
+              np.ascontiguousarray(free, dtype=np.int64)):
+        h.update(str(a.shape).encode())
+        h.update(a.tobytes())
+    h.update(float(s).hex().encode())
+    h.update(json.dumps(dataclasses.asdict(quadrature), sort_keys=True, default=list).encode())
+    h.update(str(int(nchunks)).encode())
+    return h.hexdigest()
+
+
+def _write(directory: Path, key: str, A: np.ndarray, seconds: float) -> None:
+    directory.mkdir(parents=True, exist_ok=True)
+    tag = f".tmp-{os.getpid()}-{key}"
+    meta, arr = directory / f"{tag}.json", directory / f"{tag}.npy"
+    try:
+        meta.write_text(json.dumps({"seconds": seconds, "shape": list(A.shape)}))
+        np.save(arr, A)
+        os.replace(meta, directory / f"{key}.json")    # the .npy last: it marks a whole entry
+        os.replace(arr, directory / f"{key}.npy")
+    except OSError as err:                              # a full disk costs the reuse only
+        logger.warning("operator cache: could not keep %s in %s (%s)", key[:12], directory, err)
+        for f in (meta, arr):
+            f.unlink(missing_ok=True)
+
+
+def _read(directory: Path, key: str, n: int):
+    arr = directory / f"{key}.npy"
+    if not arr.exists():
+        return None
+    try:
+        seconds = float(json.loads((directory / f"{key}.json").read_text())["seconds"])
+        A = np.load(arr)
+        if A.shape != (n, n) or A.dtype != np.float64:
+            raise ValueError(f"shape {A.shape}, dtype {A.dtype}")
+    except (OSError, ValueError, KeyError, EOFError) as err:
+        logger.warning("operator cache: entry %s in %s unreadable (%s); assembling again",
+                       key[:12], directory, err)
+        return None
+    return A, seconds
+
+
+def dense_free_block(mesh, s, free, quadrature, assemble):
+    """(A[free, free], timings, info) of the dense matrix: read back from the cache when
+    it holds it, else ``assemble()`` (the full matrix, with its timings) and kept there.
+    ``timings['total']`` is always the seconds of the assembly itself, also on a hit (the
+    cost of the operator, whichever job paid it); ``timings['load']`` the read on a hit."""
+    directory = cache_directory()
+    if directory is None:
+        A, tim = assemble()
+        return np.ascontiguousarray(A[np.ix_(free, free)]), tim, {}
+    import numba
+    key = entry_key(mesh.p, mesh.t, free, s, quadrature, numba.get_num_threads())
+    t0 = time.perf_counter()
+    found = _read(directory, key, len(free))
+    if found is not None:
+        A, seconds = found
+        load = time.perf_counter() - t0
+        logger.info("operator cache: %d x %d matrix (s=%g) read back in %.2f s (assembled "
+                    "in %.2f s)", len(free), len(free), s, load, seconds)
+        return A, {"total": seconds, "load": load}, {"cache": "hit"}
+    A, tim = assemble()
+    Af = np.ascontiguousarray(A[np.ix_(free, free)])
+    del A
+    _write(directory, key, Af, tim["total"])
+    return Af, tim, {"cache": "miss"}

@@ -1,0 +1,82 @@
+"""The operator cache (fracfem.opcache): a dense operator read back is the one assembly
+gives, bit for bit; anything the matrix depends on changes the entry; a broken entry is
+assembled again; without a directory nothing is written."""
+import json
+
+import numpy as np
+import pytest
+
+import fracfem as ff
+from fracfem.opcache import ENV, cache_directory
+
+
+@pytest.fixture
+def mesh():
+    return ff.disk_uniform(2)
+
+
+def test_a_second_discretisation_reads_back_the_same_matrix(tmp_path, mesh, monkeypatch):
+    monkeypatch.delenv(ENV, raising=False)
+    fresh = ff.discretise(mesh, 0.5, 1.0)
+    assert "cache" not in fresh.info
+    with ff.operator_cache(tmp_path):
+        first = ff.discretise(mesh, 0.5, 1.0)
+        second = ff.discretise(mesh, 0.5, 0.0)          # other data, same operator
+    assert (first.info["cache"], second.info["cache"]) == ("miss", "hit")
+    np.testing.assert_array_equal(first.A, fresh.A)
+    np.testing.assert_array_equal(second.A, fresh.A)
+    np.testing.assert_array_equal(second.b, 0.0)
+    # a hit reports what the assembly cost, and how long the read took
+    assert second.timings["assembly"] == first.timings["assembly"] > 0
+    assert "operator_load" in second.timings and "operator_load" not in first.timings
+    assert len(list(tmp_path.glob("*.npy"))) == 1
+    assert not list(tmp_path.glob(".tmp-*"))
+
+
+def test_what_the_matrix_depends_on_changes_the_entry(tmp_path, mesh):
+    moved = ff.disk_uniform(2)
+    moved.p[:, mesh.interior_nodes()[0]] += 1e-3
+    with ff.operator_cache(tmp_path):
+        ff.discretise(mesh, 0.5)
+        other = [ff.discretise(mesh, 0.6), ff.discretise(moved, 0.5),
+                 ff.discretise(mesh, 0.5, quadrature=ff.QuadratureOptions(coincident=12))]
+    assert [d.info["cache"] for d in other] == ["miss"] * 3
+    assert len(list(tmp_path.glob("*.npy"))) == 4
+    expected = ff.discretise(moved, 0.5)                 # outside the block: no cache
+    np.testing.assert_array_equal(other[1].A, expected.A)
+
+
+def test_a_broken_entry_is_assembled_again(tmp_path, mesh):
+    with ff.operator_cache(tmp_path):
+        good = ff.discretise(mesh, 0.5)
+        entry = next(tmp_path.glob("*.npy"))
+        entry.write_bytes(entry.read_bytes()[:100])      # truncated
+        again = ff.discretise(mesh, 0.5)
+        assert again.info["cache"] == "miss"
+        np.testing.assert_array_equal(again.A, good.A)
+        json_file = entry.with_suffix(".json")
+        json_file.write_text(json.dumps({"shape": [3, 3]}))   # no seconds
+        assert ff.discretise(mesh, 0.5).info["cache"] == "miss"
+        assert ff.discretise(mesh, 0.5).info["cache"] == "hit"   # written whole again
+
+
+def test_the_environment_turns_it_on_and_a_block_turns_it_off(tmp_path, mesh, monkeypatch):
+    monkeypatch.setenv(ENV, str(tmp_path / "ops"))
+    assert cache_directory() == tmp_path / "ops"
+    ff.discretise(mesh, 0.5)
+    assert len(list((tmp_path / "ops").glob("*.npy"))) == 1
+    with ff.operator_cache(None):
+        assert cache_directory() is None
+        assert "cache" not in ff.discretise(mesh, 0.5).info
+    monkeypatch.setenv(ENV, str(tmp_path / "ops" / next((tmp_path / "ops").glob("*.npy")).name))
+    with pytest.raises(ValueError, match=f"{ENV}=.*must be a directory"):
+        ff.discretise(mesh, 0.5)
+
+
+def test_bad_input_is_refused_before_the_cache_is_read(tmp_path, mesh):
+    with ff.operator_cache(tmp_path):
+        ff.discretise(mesh, 0.5)
+        with pytest.raises(ValueError, match="s="):
+            ff.discretise(mesh, "0.5")
+        with pytest.raises(ValueError, match="quadrature=.*QuadratureOptions"):
+            ff.discretise(mesh, 0.5, quadrature={"coincident": 12})
