@@ -85,8 +85,13 @@ rule all:
     default_target: True
 
 
+# the dense operators kept while the run lasted (common.smk): a means, not a result
 onsuccess:
-    # the dense operators kept while the run lasted (common.smk): a means, not a result
+    if OPERATOR_CACHE:
+        import shutil
+        shutil.rmtree(OPERATOR_CACHE, ignore_errors=True)
+
+onerror:
     if OPERATOR_CACHE:
         import shutil
         shutil.rmtree(OPERATOR_CACHE, ignore_errors=True)

@@ -7,9 +7,9 @@ Off unless a directory is given, by :func:`operator_cache` or by the environment
 assembly took (``<key>.json``), and reads it back when the same operator is asked for
 again.  The key is a SHA-256 of everything the matrix depends on: the nodes, triangles
 and free nodes, s, the quadrature options, the number of parallel chunks of the far field
-(their sums differ in round-off) and the source of fracfem itself, so that an entry is
-only read back by the code that wrote it and the result is the matrix that would have
-been assembled, bit for bit.
+(their sums differ in round-off), the source of fracfem itself and the machine type and
+versions of numpy, scipy and numba, so that an entry is only read back by the code that
+wrote it and the result is the matrix that would have been assembled, bit for bit.
 
 An entry is written under a temporary name and renamed: a reader sees a whole entry or
 none.  Two processes that miss at the same time both assemble and write the same bytes.
@@ -30,6 +30,7 @@ import hashlib
 import json
 import logging
 import os
+import tempfile
 import time
 from pathlib import Path
 
@@ -83,32 +84,60 @@ def _source_hash() -> str:
     return _source[0]
 
 
+def _plain(value):
+    """A quadrature field as JSON the same for equal values: numbers as floats (8 and 8.0,
+    numpy scalars), sequences as lists."""
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return float(value)
+    return value
+
+
+def _platform() -> str:
+    import platform
+
+    import numba
+    import scipy
+    return " ".join([platform.machine(), np.__version__, scipy.__version__, numba.__version__])
+
+
 def entry_key(p, t, free, s, quadrature, nchunks) -> str:
     """SHA-256 of what the free-node block of the dense matrix depends on."""
     h = hashlib.sha256()
-    h.update(f"fracfem-operator {FORMAT} {_source_hash()} ".encode())
+    h.update(f"fracfem-operator {FORMAT} {_source_hash()} {_platform()} ".encode())
     for a in (np.ascontiguousarray(p, dtype=np.float64), np.ascontiguousarray(t, dtype=np.int64),
               np.ascontiguousarray(free, dtype=np.int64)):
         h.update(str(a.shape).encode())
         h.update(a.tobytes())
     h.update(float(s).hex().encode())
-    h.update(json.dumps(dataclasses.asdict(quadrature), sort_keys=True, default=list).encode())
+    fields = {f.name: _plain(getattr(quadrature, f.name))
+              for f in dataclasses.fields(quadrature)}
+    h.update(json.dumps(fields, sort_keys=True).encode())
     h.update(str(int(nchunks)).encode())
     return h.hexdigest()
 
 
 def _write(directory: Path, key: str, A: np.ndarray, seconds: float) -> None:
-    directory.mkdir(parents=True, exist_ok=True)
-    tag = f".tmp-{os.getpid()}-{key}"
-    meta, arr = directory / f"{tag}.json", directory / f"{tag}.npy"
-    try:
+    made = []
+    try:                                                # a full disk costs the reuse only
+        directory.mkdir(parents=True, exist_ok=True)
+        for suffix in (".json", ".npy"):                # unique names, also across machines
+            fd, name = tempfile.mkstemp(prefix=f".tmp-{key[:16]}-", suffix=suffix,
+                                        dir=directory)
+            os.close(fd)
+            made.append(Path(name))
+        meta, arr = made
         meta.write_text(json.dumps({"seconds": seconds, "shape": list(A.shape)}))
-        np.save(arr, A)
+        with open(arr, "wb") as fh:
+            np.save(fh, A)
         os.replace(meta, directory / f"{key}.json")    # the .npy last: it marks a whole entry
         os.replace(arr, directory / f"{key}.npy")
-    except OSError as err:                              # a full disk costs the reuse only
+    except OSError as err:
         logger.warning("operator cache: could not keep %s in %s (%s)", key[:12], directory, err)
-        for f in (meta, arr):
+        for f in made:
             f.unlink(missing_ok=True)
 
 
@@ -121,7 +150,7 @@ def _read(directory: Path, key: str, n: int):
         A = np.load(arr)
         if A.shape != (n, n) or A.dtype != np.float64:
             raise ValueError(f"shape {A.shape}, dtype {A.dtype}")
-    except (OSError, ValueError, KeyError, EOFError) as err:
+    except (OSError, ValueError, KeyError, TypeError, EOFError) as err:
         logger.warning("operator cache: entry %s in %s unreadable (%s); assembling again",
                        key[:12], directory, err)
         return None

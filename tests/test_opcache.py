@@ -80,3 +80,37 @@ def test_bad_input_is_refused_before_the_cache_is_read(tmp_path, mesh):
             ff.discretise(mesh, "0.5")
         with pytest.raises(ValueError, match="quadrature=.*QuadratureOptions"):
             ff.discretise(mesh, 0.5, quadrature={"coincident": 12})
+
+
+def test_equal_quadrature_written_otherwise_is_one_entry(tmp_path, mesh):
+    """8 and 8.0, a tuple and a list, a numpy integer: the same options, the same entry."""
+    default = ff.QuadratureOptions()
+    same = ff.QuadratureOptions(coincident=np.int64(default.coincident),
+                                far_thresholds=[int(x) for x in default.far_thresholds])
+    with ff.operator_cache(tmp_path):
+        ff.discretise(mesh, 0.5, quadrature=default)
+        assert ff.discretise(mesh, 0.5, quadrature=same).info["cache"] == "hit"
+
+
+def test_a_cache_that_cannot_be_written_costs_the_reuse_only(tmp_path, mesh):
+    blocked = tmp_path / "file"
+    blocked.write_text("")
+    with ff.operator_cache(blocked / "ops"):           # its parent is a file: mkdir fails
+        d = ff.discretise(mesh, 0.5)
+    assert d.info["cache"] == "miss"
+    np.testing.assert_array_equal(d.A, ff.discretise(mesh, 0.5).A)
+
+
+def test_the_number_of_chunks_is_part_of_the_entry(tmp_path, mesh):
+    import numba
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one numba thread only")
+    before = numba.get_num_threads()
+    try:
+        with ff.operator_cache(tmp_path):
+            numba.set_num_threads(1)
+            ff.discretise(mesh, 0.5)
+            numba.set_num_threads(2)
+            assert ff.discretise(mesh, 0.5).info["cache"] == "miss"
+    finally:
+        numba.set_num_threads(before)

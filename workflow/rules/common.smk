@@ -96,11 +96,13 @@ if OUT in _COMMITTED:
 # variants, Example 4's two initial values, a reference family's member and its error) are
 # assembled by the first and read back by the others (fracfem.opcache, bit for bit the
 # same matrix; a job's time columns keep the assembly's seconds).  The directory lives
-# while the run does: removed when it succeeds.  A FRACFEM_OPERATOR_CACHE set beforehand
-# is used instead and kept; operator_cache: false turns it off.
+# while the run does: removed when it ends.  The adaptive algorithms' jobs, whose meshes
+# are their own and whose pages time every step, neither read nor keep any.  A
+# FRACFEM_OPERATOR_CACHE set beforehand is used instead and kept; operator_cache: false
+# turns it off.
 OPERATOR_CACHE = None
 if config.get("operator_cache", True) and "FRACFEM_OPERATOR_CACHE" not in os.environ:
-    OPERATOR_CACHE = f"{RES}/operators"
+    OPERATOR_CACHE = os.path.abspath(f"{RES}/operators")
     os.environ["FRACFEM_OPERATOR_CACHE"] = OPERATOR_CACHE
 
 # Which ready job starts first on few cores: the parabolic problems' jobs (their chains run

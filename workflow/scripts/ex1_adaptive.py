@@ -16,7 +16,7 @@ logger = script_logger("ex1_adaptive")
 def main(s, theta, start_level, max_dofs, max_steps, quadrature, table, npz, log=None,
          threads=None, operator="dense"):
     """operator: 'dense', 'compressed' or 'auto' (dense below 8,000 free nodes)."""
-    start(log, threads)
+    start(log, threads, operator_cache=False)   # its own meshes; it times each step
     quad = ff.QuadratureOptions(**quadrature)
     example = ff.Example1(s)
     exact = ff.disk_energy(example.s)

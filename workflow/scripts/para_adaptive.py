@@ -102,7 +102,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     para_reference_operator (None: assembled here); checkpoint: the file each pass that
     does not end the run is saved to, and continued from when the job starts again
     (None: none)."""
-    start(log, threads)
+    start(log, threads, operator_cache=False)   # its own meshes; it times each step
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
     obstacle = example == "ex4"

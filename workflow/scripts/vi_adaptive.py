@@ -19,7 +19,7 @@ def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure
     """problem: the run's name; example, data: fracfem.example(example, **data);
     operator: 'dense', 'compressed' or 'auto' (dense below 8,000 free nodes), the
     matrix of every step and, through the estimator's default, its (−Δ)ˢu_h."""
-    start(log, threads)
+    start(log, threads, operator_cache=False)   # its own meshes; it times each step
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
     obstacle = example == "ex2"

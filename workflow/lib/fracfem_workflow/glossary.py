@@ -252,7 +252,8 @@ GROUPS = [
         "series": "`time-split.csv`: `adaptive` (a pass of Algorithm C) or `graded` (a run "
                   "of the graded series)",
         "t_resolve": "`time-split.csv`: seconds to solve and estimate the pass again with m "
-                     "times the steps (m = 1: the pass's own time)",
+                     "times the steps, its operators read back from the operator cache "
+                     "(m = 1: the pass's own time, with its assembly)",
     }),
     ("Stability (`stability.md`, `stability-vi.md`)", False, {
         "case": "what was run",

@@ -19,11 +19,19 @@ PARAMETERS = ("grading", "theta", "marking", "start_level", "max_dofs", "solver"
               "tol", "maxiter", "T", "tau_factor", "c_tau", "operator", "data")
 
 
-def start(log: str | None = None, threads: int | None = None) -> None:
+def start(log: str | None = None, threads: int | None = None,
+          operator_cache: bool = True) -> None:
     """Log to ``log`` (the rule's log file, :func:`fracfem_workflow.logs.log_to`) and
-    give numba at most ``threads`` threads."""
+    give numba at most ``threads`` threads.  operator_cache=False: this job neither reads
+    nor keeps operators in the pipeline's operator cache (fracfem.opcache): the adaptive
+    algorithms, whose meshes are their own and whose pages time each step."""
     if log is not None:
         log_to(log)
+    if not operator_cache:
+        import os
+
+        from fracfem.opcache import ENV
+        os.environ.pop(ENV, None)
     if threads is not None:
         import numba
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
