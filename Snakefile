@@ -85,7 +85,11 @@ rule all:
     default_target: True
 
 
-# the dense operators kept while the run lasted (common.smk): a means, not a result
+# the dense operators kept while the run lasts (common.smk): a means, not a result
+onstart:
+    if OPERATOR_CACHE:
+        os.environ["FRACFEM_OPERATOR_CACHE"] = OPERATOR_CACHE
+
 onsuccess:
     if OPERATOR_CACHE:
         import shutil

@@ -9,7 +9,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from ._progress import solver_level
-from .assembly import QuadratureOptions, dense_bytes, load_vector, stiffness_matrix
+from .assembly import (QuadratureOptions, _check_dense_memory, dense_bytes, load_vector,
+                       stiffness_matrix)
 from .compressed import DEFAULT_TOL, stiffness_operator
 from .krylov import pcg
 from .memory import check_dense, memory_limit
@@ -112,8 +113,12 @@ def discretise(mesh, s: float, f=1.0, *, quadrature: QuadratureOptions | None = 
         def assemble():
             A = stiffness_matrix(mesh, s, quadrature=quadrature, timings=tim)
             return A, tim
-        Af, tim, cached = dense_free_block(mesh, s, free, quadrature or QuadratureOptions(),
-                                           assemble)
+        import numba
+        quad = quadrature or QuadratureOptions()
+        # refused as assembly would refuse it, also when the cache holds it
+        _check_dense_memory(mesh.p.shape[1], mesh.t.shape[1], numba.get_num_threads(), quad,
+                            None)
+        Af, tim, cached = dense_free_block(mesh, s, free, quad, assemble)
         info = {"operator": "dense", **cached}
     else:
         Af = stiffness_operator(mesh, s, tol=tol, quadrature=quadrature)

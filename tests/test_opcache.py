@@ -114,3 +114,12 @@ def test_the_number_of_chunks_is_part_of_the_entry(tmp_path, mesh):
             assert ff.discretise(mesh, 0.5).info["cache"] == "miss"
     finally:
         numba.set_num_threads(before)
+
+
+def test_a_matrix_too_large_is_refused_also_when_the_cache_holds_it(tmp_path, mesh,
+                                                                    monkeypatch):
+    with ff.operator_cache(tmp_path):
+        ff.discretise(mesh, 0.5)
+        monkeypatch.setenv("FRACFEM_MEMORY_LIMIT", "16K")
+        with pytest.raises(ff.DenseMemoryError, match="FRACFEM_MEMORY_LIMIT"):
+            ff.discretise(mesh, 0.5)

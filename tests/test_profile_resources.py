@@ -131,8 +131,13 @@ def test_the_block_replaces_only_itself_and_is_valid_yaml(tmp_path):
 
 
 @pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake is not installed")
-def test_every_rule_of_the_workflow_has_a_benchmark_pattern_and_the_profile_covers_it():
+def test_every_rule_of_the_workflow_has_a_benchmark_pattern_and_the_profile_covers_it(
+        monkeypatch):
+    import os
+    monkeypatch.delenv("FRACFEM_OPERATOR_CACHE", raising=False)
     rules = pr.load_rules(ROOT / "Snakefile", [ROOT / "config" / "ci.yaml"], ROOT)
+    # reading the workflow turns no operator cache on in the reader (only a run's onstart)
+    assert "FRACFEM_OPERATOR_CACHE" not in os.environ
     names = {r.name for r in rules}
     assert {"ex1_solve", "vi_solve", "para_solve", "fig02", "rates"} <= names
     assert "all" not in names

@@ -100,10 +100,11 @@ if OUT in _COMMITTED:
 # are their own and whose pages time every step, neither read nor keep any.  A
 # FRACFEM_OPERATOR_CACHE set beforehand is used instead and kept; operator_cache: false
 # turns it off.
+# The Snakefile's onstart sets FRACFEM_OPERATOR_CACHE for the jobs (not here: a program
+# that only reads the workflow through Snakemake's API must not inherit it).
 OPERATOR_CACHE = None
 if config.get("operator_cache", True) and "FRACFEM_OPERATOR_CACHE" not in os.environ:
     OPERATOR_CACHE = os.path.abspath(f"{RES}/operators")
-    os.environ["FRACFEM_OPERATOR_CACHE"] = OPERATOR_CACHE
 
 # Which ready job starts first on few cores: the parabolic problems' jobs (their chains run
 # reference family → its error → Algorithm C → errors → time split, a quarter of an hour in
