@@ -89,6 +89,13 @@ rule all:
 onstart:
     if OPERATOR_CACHE:
         os.environ["FRACFEM_OPERATOR_CACHE"] = OPERATOR_CACHE
+    # numba's kernels compiled (or loaded from its cache) before the first job, so that
+    # no job times their compilation (fracfem.warmup: minutes on a fresh installation)
+    from fracfem.warmup import is_warm
+    if not is_warm():
+        import sys
+        Path(f"{RES}/logs").mkdir(parents=True, exist_ok=True)
+        shell(f"{sys.executable} -m fracfem.warmup > {RES}/logs/warmup.log 2>&1")
 
 onsuccess:
     if OPERATOR_CACHE:

@@ -56,3 +56,35 @@ def test_import_pulls_in_no_workflow_or_plotting_package():
     path, heavy = json.loads(out.strip().splitlines()[-1])
     assert Path(path).resolve() == ROOT / "fracfem" / "__init__.py"
     assert heavy == []
+
+
+def test_warm_up_compiles_every_kernel_called_from_python():
+    """fracfem.warmup leaves no kernel that fracfem's Python code calls uncompiled: run in
+    a process of its own, every such numba dispatcher has a signature afterwards."""
+    import subprocess
+    import sys
+    code = r"""
+import pathlib, re
+import fracfem
+from fracfem import _aniso_kernels, _h2_kernels, _kernels, _pointwise_kernels
+from fracfem.warmup import warm_up
+from numba.core.registry import CPUDispatcher
+warm_up()
+root = pathlib.Path(fracfem.__file__).parent
+callers = "".join(p.read_text() for p in root.glob("*.py") if not p.name.endswith("_kernels.py"))
+called = missing = 0
+for m in (_kernels, _aniso_kernels, _h2_kernels, _pointwise_kernels):
+    for name, f in vars(m).items():
+        if isinstance(f, CPUDispatcher) and re.search(r"\." + name + r"\(", callers):
+            called += 1
+            if not f.signatures:
+                print("missing", m.__name__, name)
+                missing += 1
+print("called", called, "missing", missing)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=900)
+    assert out.returncode == 0, out.stderr[-3000:]
+    last = out.stdout.strip().splitlines()[-1]
+    called, missing = int(last.split()[1]), int(last.split()[3])
+    assert called >= 20 and missing == 0, out.stdout      # 28 when written
