@@ -98,11 +98,7 @@ onstart:
         shell(f"{sys.executable} -m fracfem.warmup > {RES}/logs/warmup.log 2>&1")
 
 onsuccess:
-    if OPERATOR_CACHE:
-        import shutil
-        shutil.rmtree(OPERATOR_CACHE, ignore_errors=True)
+    remove_operator_cache()
 
 onerror:
-    if OPERATOR_CACHE:
-        import shutil
-        shutil.rmtree(OPERATOR_CACHE, ignore_errors=True)
+    remove_operator_cache()

@@ -63,11 +63,12 @@ def warm_up() -> float:
                            ex.initial_value, T=0.1, theta=0.5, iterations=2)
     seconds = time.perf_counter() - t0
     logger.info("numba kernels compiled or loaded in %.1f s", seconds)
+    path = stamp()
     try:
-        stamp().parent.mkdir(parents=True, exist_ok=True)
-        stamp().write_text(f"{seconds:.1f} s\n")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(f"{seconds:.1f} s\n")
     except OSError as err:                      # a read-only installation: warm next time too
-        logger.warning("could not write %s (%s)", stamp(), err)
+        logger.warning("could not write %s (%s)", path, err)
     return seconds
 
 

@@ -106,6 +106,13 @@ OPERATOR_CACHE = None
 if config.get("operator_cache", True) and "FRACFEM_OPERATOR_CACHE" not in os.environ:
     OPERATOR_CACHE = os.path.abspath(f"{RES}/operators")
 
+
+def remove_operator_cache():
+    """The end of a run, successful or not: its operators are a means, not a result."""
+    if OPERATOR_CACHE:
+        import shutil
+        shutil.rmtree(OPERATOR_CACHE, ignore_errors=True)
+
 # Which ready job starts first on few cores: the parabolic problems' jobs (their chains run
 # reference family → its error → Algorithm C → errors → time split, a quarter of an hour in
 # a row), then the other long single jobs, and the many short ones fill the end (in a run
