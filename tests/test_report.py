@@ -104,6 +104,41 @@ def test_rate_table_fits_only_runs_well_above_the_reference_error():
     assert t.n_points == 1 and np.isnan(t.rate)
 
 
+def test_rate_bounds_are_the_extreme_fits_over_every_error_within_its_uncertainty():
+    """rate_bounds against brute force: the least and greatest fitted slope over all 2^n
+    corners of the box |e_i − error_i| ≤ u_i, and no slope of a point inside the box
+    beyond them; exact errors give the fit itself."""
+    from itertools import product
+
+    from fracfem_workflow.report import rate_bounds
+
+    rng = np.random.default_rng(3)
+    N = np.array([300, 900, 2500, 8000, 30000])
+    err = 2.0 * N ** -0.3 * np.exp(rng.normal(0, 0.05, N.size))
+    u = err * rng.uniform(0.05, 0.3, N.size)
+    lo, hi = rate_bounds(N, err, u)
+    corners = [fit_rate(N, err + np.array(signs) * u) for signs in product((-1, 1), repeat=5)]
+    assert lo == pytest.approx(min(corners), abs=1e-12)
+    assert hi == pytest.approx(max(corners), abs=1e-12)
+    inside = [fit_rate(N, err + rng.uniform(-1, 1, N.size) * u) for _ in range(200)]
+    assert lo <= min(inside) and max(inside) <= hi and lo < fit_rate(N, err) < hi
+    assert rate_bounds(N, err, 0.0) == pytest.approx((fit_rate(N, err),) * 2, abs=1e-12)
+    # an error that could be 0, an unknown uncertainty, a single run
+    assert rate_bounds(N, err, np.where(N == N[-1], err, 0.0))[0] == -np.inf
+    assert np.isnan(rate_bounds(N, err, np.nan)).all()
+    assert np.isnan(rate_bounds(N[:1], err[:1], 0.0)).all()
+    with pytest.raises(ValueError, match="uncertainty must be >= 0"):
+        rate_bounds(N, err, -u)
+    # in the rate table: through the fitted runs only, around the rate
+    df = pd.DataFrame({"example": 2, "family": "graded", "s": 0.5, "dofs": N, "error": err,
+                       "reference_error": u.max()})
+    t = rate_table(df).iloc[0]
+    keep = err > 3 * u.max()
+    assert (t.rate_min, t.rate_max) == pytest.approx(
+        np.round(rate_bounds(N[keep], err[keep], u.max()), 3))
+    assert t.rate_min < t.rate < t.rate_max
+
+
 def test_fit_bounds_per_run_nan_and_infinite():
     """One bound per run (the parabolic errors' own uncertainties): each run is judged by
     its own; an unknown bound (NaN) excludes nothing, an infinite one its run, and an error

@@ -78,6 +78,21 @@ def reason(r, time_split=()):
     return REASONS.get((r.example, r.family), "not explained yet")
 
 
+def within(r):
+    """Whether the paper's rate lies among the rates row r's runs allow within their
+    reference's error (rate_min … rate_max); nothing when the reference is exact."""
+    if not (pd.notna(r.rate_min) and pd.notna(r.rate_max)) or r.rate_min == r.rate_max:
+        return ""
+    span = f"{r.rate_min:.3f} … {r.rate_max:.3f}"
+    if r.rate_min <= r.paper_rate <= r.rate_max:
+        return (f" The paper's rate lies within {span}, the rates these runs give with "
+                "each error moved by up to its reference's error: the reference does not "
+                "resolve this difference.")
+    return (f" The paper's rate lies outside {span}, the rates these runs give with each "
+            "error moved by up to its reference's error: the reference's error does not "
+            "account for this difference.")
+
+
 def differences(rates, limit=0.05, time_split=()):
     """One sentence per row whose rate differs from the paper's by more than limit."""
     lines = []
@@ -97,7 +112,7 @@ def differences(rates, limit=0.05, time_split=()):
                        f"{r.n_points}; a finer reference is needed"
                        + ("" if why == "not explained yet" else f". Also: {why}"))
             lines.append(f"- {name}, {r.family}: {r.rate:.3f} against {r.paper_rate:.3f} — "
-                         f"{why}.")
+                         f"{why}.{within(r)}")
     return lines
 
 

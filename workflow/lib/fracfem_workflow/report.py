@@ -85,6 +85,32 @@ def masked_rate(dofs, errors, keep) -> float:
     return fit_rate(dofs[keep], errors[keep]) if keep.sum() >= 2 else float("nan")
 
 
+def rate_bounds(dofs, errors, uncertainty) -> tuple:
+    """(least, greatest) least-squares slope of log(error) against log(dofs) when each
+    run's true error may lie anywhere within ``uncertainty`` of its measured one
+    (|e − error| ≤ uncertainty, run by run, independently).
+
+    The slope is Σ w_i log e_i with w_i = (x_i − x̄) / Σ (x_j − x̄)², x = log dofs: linear
+    in each log e_i, so the least slope takes every run with w_i > 0 (the larger runs) at
+    error − uncertainty and every other at error + uncertainty, and the greatest the
+    reverse.  −inf where a run's error could be 0; NaN for fewer than two runs or an
+    unknown (NaN) uncertainty."""
+    x = np.log(np.asarray(dofs, dtype=float))
+    e = np.asarray(errors, dtype=float)
+    u = np.broadcast_to(np.asarray(uncertainty, dtype=float), e.shape)
+    if len(x) < 2 or np.isnan(u).any() or not np.isfinite(e).all() or np.ptp(x) == 0:
+        return float("nan"), float("nan")
+    if (u < 0).any():
+        raise ValueError(f"uncertainty must be >= 0, got {u.min()}")
+    w = (x - x.mean()) / np.sum((x - x.mean()) ** 2)
+    with np.errstate(divide="ignore"):
+        low, high = np.log(np.maximum(e - u, 0.0)), np.log(e + u)
+    # w_i = 0 contributes nothing whichever end is taken (avoids 0 · (−inf))
+    least = np.sum(np.where(w > 0, w * low, np.where(w < 0, w * high, 0.0)))
+    greatest = np.sum(np.where(w > 0, w * high, np.where(w < 0, w * low, 0.0)))
+    return float(least), float(greatest)
+
+
 def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFrame:
     """One row per (example, variant, family, s): fitted rate next to the paper's.
 
@@ -92,7 +118,9 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
     rate is shown for the paper's order s and the variants of PAPER_VARIANTS only.
     ``reference_error`` (optional column, 0 when absent: exact reference) is the
     reference's own error; only runs passing :func:`fit_mask` enter the fit, and a
-    row with fewer than two of them has no rate (NaN).
+    row with fewer than two of them has no rate (NaN).  ``rate_min`` and ``rate_max``
+    are the rates the same runs allow when each error is off by up to its
+    ``reference_error`` (:func:`rate_bounds`).
     """
     df = df.copy()
     if "variant" not in df:
@@ -107,9 +135,11 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
         mask = fit_mask(g[y], g.reference_error)
         keep = g[mask]
         rate = round(masked_rate(g[x], g[y], mask), 3)
+        lo, hi = rate_bounds(keep[x], keep[y], keep.reference_error)
         fitted = keep if len(keep) else g
         rows.append({"example": int(ex), "variant": var, "family": fam, "s": float(s),
-                     "rate": rate, "paper_rate": paper, "n_points": len(keep),
+                     "rate": rate, "rate_min": round(lo, 3), "rate_max": round(hi, 3),
+                     "paper_rate": paper, "n_points": len(keep),
                      "n_excluded": len(g) - len(keep),
                      "dof_min": int(fitted[x].min()), "dof_max": int(fitted[x].max()),
                      "reference_error": ref_err, "smallest_error": float(g[y].min())})
