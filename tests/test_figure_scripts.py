@@ -459,14 +459,14 @@ def test_rate_explanations_cite_only_the_time_split_tables_made():
     rows = pd.DataFrame({"example": [4, 4, 5], "variant": ["u1", "u2", ""],
                          "family": ["adaptive"] * 3, "rate": [-0.15, -0.15, -0.49],
                          "paper_rate": [-0.319, -0.319, -0.323], "n_points": [2, 2, 4],
-                         "n_excluded": [0, 0, 0], "rate_min": [-0.2, -0.35, -0.49],
-                         "rate_max": [-0.1, -0.1, -0.49]})
+                         "n_excluded": [0, 0, 0], "rate_min": [-0.2, -0.35, -0.5],
+                         "rate_max": [-0.1, -0.1, -0.4], "reference_error": [0.01, 0.01, 0]})
     made = rates.differences(rows, time_split=["ex4-u2", "ex5"])
     assert "time-split" not in made[0] and rates.REF_PARA in made[0]
     # whether the reference's own error can make the difference (rate_min … rate_max)
-    assert "lies outside -0.200 … -0.100" in made[0]
-    assert "lies within -0.350 … -0.100" in made[1]
-    assert "reference's error" not in made[2].split(rates.REF_PARA)[-1]   # exact: no span
+    assert "rates from -0.200 to -0.100; the paper's rate lies outside it" in made[0]
+    assert "rates from -0.350 to -0.100; the paper's rate lies inside" in made[1]
+    assert "Moving each" not in made[2]                  # an exact reference: no range
     assert "`ex4-u2-time-split.md`" in made[1] and "ex4-u1" not in made[1]
     assert "`ex5-time-split.md`" in made[2]
     assert not any("time-split" in line for line in rates.differences(rows))

@@ -104,39 +104,69 @@ def test_rate_table_fits_only_runs_well_above_the_reference_error():
     assert t.n_points == 1 and np.isnan(t.rate)
 
 
-def test_rate_bounds_are_the_extreme_fits_over_every_error_within_its_uncertainty():
+def test_rate_bounds_are_the_extreme_fits_over_every_error_within_its_bounds():
     """rate_bounds against brute force: the least and greatest fitted slope over all 2^n
-    corners of the box |e_i − error_i| ≤ u_i, and no slope of a point inside the box
+    corners of the box lower_i ≤ e_i ≤ upper_i, and no slope of a point inside the box
     beyond them; exact errors give the fit itself."""
     from itertools import product
 
-    from fracfem_workflow.report import rate_bounds
+    from fracfem_workflow.report import error_interval, rate_bounds
 
     rng = np.random.default_rng(3)
     N = np.array([300, 900, 2500, 8000, 30000])
     err = 2.0 * N ** -0.3 * np.exp(rng.normal(0, 0.05, N.size))
     u = err * rng.uniform(0.05, 0.3, N.size)
-    lo, hi = rate_bounds(N, err, u)
+    lo, hi = rate_bounds(N, *error_interval(err, u))
     corners = [fit_rate(N, err + np.array(signs) * u) for signs in product((-1, 1), repeat=5)]
     assert lo == pytest.approx(min(corners), abs=1e-12)
     assert hi == pytest.approx(max(corners), abs=1e-12)
     inside = [fit_rate(N, err + rng.uniform(-1, 1, N.size) * u) for _ in range(200)]
     assert lo <= min(inside) and max(inside) <= hi and lo < fit_rate(N, err) < hi
-    assert rate_bounds(N, err, 0.0) == pytest.approx((fit_rate(N, err),) * 2, abs=1e-12)
-    # an error that could be 0, an unknown uncertainty, a single run
-    assert rate_bounds(N, err, np.where(N == N[-1], err, 0.0))[0] == -np.inf
-    assert np.isnan(rate_bounds(N, err, np.nan)).all()
-    assert np.isnan(rate_bounds(N[:1], err[:1], 0.0)).all()
+    assert rate_bounds(N, err, err) == pytest.approx((fit_rate(N, err),) * 2, abs=1e-12)
+    # an error that could be 0: the finest run makes the least slope −inf, the coarsest
+    # the greatest +inf; an unknown bound, a single run, bounds the wrong way round
+    assert rate_bounds(N, np.where(N == N[-1], 0.0, err), err)[0] == -np.inf
+    assert rate_bounds(N, np.where(N == N[0], 0.0, err), err)[1] == np.inf
+    assert np.isnan(rate_bounds(N, err * np.nan, err)).all()
+    assert np.isnan(rate_bounds(N[:1], err[:1], err[:1])).all()
+    with pytest.raises(ValueError, match="lower <= upper"):
+        rate_bounds(N, err + u, err)
     with pytest.raises(ValueError, match="uncertainty must be >= 0"):
-        rate_bounds(N, err, -u)
+        error_interval(err, -u)
     # in the rate table: through the fitted runs only, around the rate
     df = pd.DataFrame({"example": 2, "family": "graded", "s": 0.5, "dofs": N, "error": err,
                        "reference_error": u.max()})
     t = rate_table(df).iloc[0]
     keep = err > 3 * u.max()
     assert (t.rate_min, t.rate_max) == pytest.approx(
-        np.round(rate_bounds(N[keep], err[keep], u.max()), 3))
+        np.round(rate_bounds(N[keep], *error_interval(err[keep], u.max())), 3))
     assert t.rate_min < t.rate < t.rate_max
+    # a fitted run whose bound is unknown: a rate, but no bounds
+    t = rate_table(df.assign(reference_error=np.where(N == N[0], np.nan, 0.01))).iloc[0]
+    assert np.isfinite(t.rate) and np.isnan(t.rate_min) and np.isnan(t.rate_max)
+
+
+def test_energy_error_bounds_are_those_of_every_reference_energy_within_its_uncertainty():
+    """Examples 2, 3: error = √(2 (E_h − E_ref)), the reference energy E_ref uncertain by
+    δE, the table's reference_error = √(2 δE).  The interval of error_interval(energy=True)
+    is exactly the range of √(2 (E_h − E)) over E in [E_ref − δE, E_ref + δE], tighter
+    than error ∓ reference_error; and the rate bounds of the rate table built from it
+    contain the rate against every such E (one E for all runs, as in the pipeline)."""
+    from fracfem_workflow.report import error_interval, rate_bounds
+
+    N = np.array([1000, 2000, 4000, 8000])
+    E_ref, dE = -1.0, 2e-5
+    E_h = E_ref + 0.5 * (0.8 * N ** -0.5) ** 2
+    err, u = energy_error(E_h, E_ref), np.sqrt(2 * dE)
+    lo, hi = error_interval(err, u, energy=True)
+    scan = np.array([energy_error(E_h, E) for E in np.linspace(E_ref - dE, E_ref + dE, 101)])
+    assert lo == pytest.approx(scan.min(axis=0), rel=1e-12)
+    assert hi == pytest.approx(scan.max(axis=0), rel=1e-12)
+    plain = error_interval(err, u)
+    assert np.all(plain[0] < lo) and np.all(hi < plain[1])
+    least, greatest = rate_bounds(N, lo, hi)
+    rates = [fit_rate(N, e) for e in scan]
+    assert least <= min(rates) and max(rates) <= greatest
 
 
 def test_fit_bounds_per_run_nan_and_infinite():

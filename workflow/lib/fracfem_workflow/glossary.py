@@ -62,8 +62,9 @@ GROUPS = [
         "rate": "least-squares slope of log `error` against log `dofs` (Examples 4, 5: "
                 "`spacetime_dofs`) over the runs whose error exceeds 3× `reference_error` "
                 "(all runs when the reference is exact); NaN when fewer than two do",
-        ("rate_min", "rate_max"): "least and greatest `rate` of the same runs, each error "
-                                  "moved by up to its `reference_error`",
+        ("rate_min", "rate_max"): "steepest and flattest `rate` of the same runs, each "
+                                  "error anywhere in its bound (Examples 2, 3: E_ref ± its "
+                                  "uncertainty; 4, 5: ± `error_uncertainty`)",
         "paper_rate": "the paper's rate (paper's s and data only)",
         "difference": "`rate` − `paper_rate` (> 0: our error falls more slowly)",
         "n_points": "runs in the fit",

@@ -85,29 +85,45 @@ def masked_rate(dofs, errors, keep) -> float:
     return fit_rate(dofs[keep], errors[keep]) if keep.sum() >= 2 else float("nan")
 
 
-def rate_bounds(dofs, errors, uncertainty) -> tuple:
-    """(least, greatest) least-squares slope of log(error) against log(dofs) when each
-    run's true error may lie anywhere within ``uncertainty`` of its measured one
-    (|e − error| ≤ uncertainty, run by run, independently).
+def error_interval(error, uncertainty, energy=False):
+    """(lower, upper) bounds of each run's true error from its measured ``error`` and the
+    ``uncertainty`` of the reference it was measured against.
+
+    energy=False (Examples 4, 5: a distance to the reference's limit, uncertain by up to
+    ``uncertainty``): error ∓ uncertainty, the lower bound at least 0.  energy=True
+    (Examples 2, 3: error = √(2 (E(u_h) − E_ref)) and uncertainty = √(2 δE), E_ref off by
+    up to δE): √(error² ∓ uncertainty²), the lower at least 0 — inside error ∓ uncertainty."""
+    e = np.asarray(error, dtype=float)
+    u = np.asarray(uncertainty, dtype=float)
+    if np.any(u < 0):
+        raise ValueError(f"uncertainty must be >= 0, got {np.min(u)}")
+    if energy:
+        return np.sqrt(np.maximum(e ** 2 - u ** 2, 0.0)), np.sqrt(e ** 2 + u ** 2)
+    return np.maximum(e - u, 0.0), e + u
+
+
+def rate_bounds(dofs, lower, upper) -> tuple:
+    """(least, greatest) least-squares slope of log e against log dofs over every choice
+    of each run's error e_i within [lower_i, upper_i], run by run, independently.
 
     The slope is Σ w_i log e_i with w_i = (x_i − x̄) / Σ (x_j − x̄)², x = log dofs: linear
-    in each log e_i, so the least slope takes every run with w_i > 0 (the larger runs) at
-    error − uncertainty and every other at error + uncertainty, and the greatest the
-    reverse.  −inf where a run's error could be 0; NaN for fewer than two runs or an
-    unknown (NaN) uncertainty."""
+    in each log e_i, so the least slope takes every run with w_i > 0 (finer than the mean)
+    at its lower bound and every other at its upper bound, and the greatest the reverse.
+    A lower bound of 0 makes the least −inf (a run finer than the mean) or the greatest
+    +inf (a coarser one); NaN for fewer than two runs or an unknown (NaN) bound."""
     x = np.log(np.asarray(dofs, dtype=float))
-    e = np.asarray(errors, dtype=float)
-    u = np.broadcast_to(np.asarray(uncertainty, dtype=float), e.shape)
-    if len(x) < 2 or np.isnan(u).any() or not np.isfinite(e).all() or np.ptp(x) == 0:
+    lo = np.asarray(lower, dtype=float)
+    hi = np.broadcast_to(np.asarray(upper, dtype=float), lo.shape)
+    if len(x) < 2 or np.isnan(lo).any() or np.isnan(hi).any() or np.ptp(x) == 0:
         return float("nan"), float("nan")
-    if (u < 0).any():
-        raise ValueError(f"uncertainty must be >= 0, got {u.min()}")
+    if np.any(lo < 0) or np.any(hi < lo) or not np.all(hi > 0):
+        raise ValueError("need 0 <= lower <= upper and upper > 0 for every run")
     w = (x - x.mean()) / np.sum((x - x.mean()) ** 2)
     with np.errstate(divide="ignore"):
-        low, high = np.log(np.maximum(e - u, 0.0)), np.log(e + u)
+        log_lo, log_hi = np.log(lo), np.log(hi)
     # w_i = 0 contributes nothing whichever end is taken (avoids 0 · (−inf))
-    least = np.sum(np.where(w > 0, w * low, np.where(w < 0, w * high, 0.0)))
-    greatest = np.sum(np.where(w > 0, w * high, np.where(w < 0, w * low, 0.0)))
+    least = np.sum(np.where(w > 0, w * log_lo, np.where(w < 0, w * log_hi, 0.0)))
+    greatest = np.sum(np.where(w > 0, w * log_hi, np.where(w < 0, w * log_lo, 0.0)))
     return float(least), float(greatest)
 
 
@@ -119,8 +135,9 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
     ``reference_error`` (optional column, 0 when absent: exact reference) is the
     reference's own error; only runs passing :func:`fit_mask` enter the fit, and a
     row with fewer than two of them has no rate (NaN).  ``rate_min`` and ``rate_max``
-    are the rates the same runs allow when each error is off by up to its
-    ``reference_error`` (:func:`rate_bounds`).
+    (:func:`rate_bounds`) are the least and greatest rate of the same runs with each
+    error anywhere within [``error_low``, ``error_high``] (optional columns; without
+    them error ∓ ``reference_error``): NaN where ``rate`` is, or a bound is unknown.
     """
     df = df.copy()
     if "variant" not in df:
@@ -135,7 +152,11 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
         mask = fit_mask(g[y], g.reference_error)
         keep = g[mask]
         rate = round(masked_rate(g[x], g[y], mask), 3)
-        lo, hi = rate_bounds(keep[x], keep[y], keep.reference_error)
+        if "error_low" in keep:
+            low, high = keep.error_low, keep.error_high
+        else:
+            low, high = error_interval(keep[y], keep.reference_error)
+        lo, hi = rate_bounds(keep[x], low, high)
         fitted = keep if len(keep) else g
         rows.append({"example": int(ex), "variant": var, "family": fam, "s": float(s),
                      "rate": rate, "rate_min": round(lo, 3), "rate_max": round(hi, 3),
