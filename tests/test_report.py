@@ -134,7 +134,7 @@ def test_rate_bounds_are_the_extreme_fits_over_every_error_within_its_bounds():
     with pytest.raises(ValueError, match="uncertainty must be >= 0"):
         error_interval(err, -u)
     # in the rate table: through the fitted runs only, around the rate
-    df = pd.DataFrame({"example": 2, "family": "graded", "s": 0.5, "dofs": N, "error": err,
+    df = pd.DataFrame({"example": 4, "family": "graded", "s": 0.5, "dofs": N, "error": err,
                        "reference_error": u.max()})
     t = rate_table(df).iloc[0]
     keep = err > 3 * u.max()
@@ -167,6 +167,18 @@ def test_energy_error_bounds_are_those_of_every_reference_energy_within_its_unce
     least, greatest = rate_bounds(N, lo, hi)
     rates = [fit_rate(N, e) for e in scan]
     assert least <= min(rates) and max(rates) <= greatest
+    # the rate table takes this interval for Examples 1-3, error ∓ reference_error after
+    # (a quarter of the uncertainty, so that every run is fitted)
+    df = pd.DataFrame({"example": 2, "family": "graded", "s": 0.5, "dofs": N, "error": err,
+                       "reference_error": u / 4})
+    t = rate_table(df).iloc[0]
+    assert t.n_points == N.size
+    assert (t.rate_min, t.rate_max) == pytest.approx(
+        np.round(rate_bounds(N, *error_interval(err, u / 4, energy=True)), 3))
+    t = rate_table(df.assign(example=4)).iloc[0]
+    assert (t.rate_min, t.rate_max) == pytest.approx(
+        np.round(rate_bounds(N, *error_interval(err, u / 4)), 3))
+    assert t.rate_min < rate_table(df).iloc[0].rate_min
 
 
 def test_fit_bounds_per_run_nan_and_infinite():

@@ -1,10 +1,9 @@
 """The rate table: ours next to the paper's (CSV, Markdown, LaTeX)."""
-import numpy as np
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path, write_table
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.report import error_interval, join_tiers, rate_table
+from fracfem_workflow.report import join_tiers, rate_table
 
 
 # why a rate can differ from the paper's (README, "Differences from the paper")
@@ -146,14 +145,6 @@ def main(tables, csv, md, tex, tier="default", tiers=None, absent=(), configured
             d = d.assign(reference_error=0.0)
         if "spacetime_dofs" in d:      # parabolic: rates against space-time DOFs
             d = d.assign(dofs=d.spacetime_dofs)
-        # each run's true error lies within these (rate_min, rate_max): Examples 1-3 an
-        # error from energies whose reference energy is uncertain, Examples 4, 5 a
-        # distance to the reference's limit
-        energy = (d.example <= 3).to_numpy()
-        bounds = [np.where(energy, a, b) for a, b in
-                  zip(error_interval(d.error, d.reference_error, energy=True),
-                      error_interval(d.error, d.reference_error))]
-        d = d.assign(error_low=bounds[0], error_high=bounds[1])
         frames.append(d)
     df = pd.concat(frames, ignore_index=True)
     rates = rate_table(df)

@@ -85,6 +85,10 @@ def masked_rate(dofs, errors, keep) -> float:
     return fit_rate(dofs[keep], errors[keep]) if keep.sum() >= 2 else float("nan")
 
 
+# Examples 1-3 measure the error as √(2 |E(u_h) − E_ref|) (error_interval's energy=True)
+ENERGY_EXAMPLES = 3
+
+
 def error_interval(error, uncertainty, energy=False):
     """(lower, upper) bounds of each run's true error from its measured ``error`` and the
     ``uncertainty`` of the reference it was measured against.
@@ -136,8 +140,8 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
     reference's own error; only runs passing :func:`fit_mask` enter the fit, and a
     row with fewer than two of them has no rate (NaN).  ``rate_min`` and ``rate_max``
     (:func:`rate_bounds`) are the least and greatest rate of the same runs with each
-    error anywhere within [``error_low``, ``error_high``] (optional columns; without
-    them error ∓ ``reference_error``): NaN where ``rate`` is, or a bound is unknown.
+    error anywhere within its :func:`error_interval` (energy errors for the examples up
+    to ENERGY_EXAMPLES): NaN where ``rate`` is, or a bound is unknown.
     """
     df = df.copy()
     if "variant" not in df:
@@ -152,11 +156,9 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
         mask = fit_mask(g[y], g.reference_error)
         keep = g[mask]
         rate = round(masked_rate(g[x], g[y], mask), 3)
-        if "error_low" in keep:
-            low, high = keep.error_low, keep.error_high
-        else:
-            low, high = error_interval(keep[y], keep.reference_error)
-        lo, hi = rate_bounds(keep[x], low, high)
+        # Examples 1-3 measure errors from energies (E_ref uncertain), 4 and 5 distances
+        lo, hi = rate_bounds(keep[x], *error_interval(keep[y], keep.reference_error,
+                                                      energy=ex <= ENERGY_EXAMPLES))
         fitted = keep if len(keep) else g
         rows.append({"example": int(ex), "variant": var, "family": fam, "s": float(s),
                      "rate": rate, "rate_min": round(lo, 3), "rate_max": round(hi, 3),
