@@ -3,7 +3,7 @@
 Example 1 (f = 1, exact energy) or Example 2 (obstacle χ = 1 − 4|x|², PDAS with
 inner Krylov solves) from disk_uniform(2), the paper's marking η(Δ) > θ·η_max,
 until a step has at least ``--max-dofs`` free nodes.  Operator and pointwise
-(−Δ)ˢu_h "auto": dense below 8,000 free nodes, compressed above, so no N × N
+(−Δ)ˢu_h "auto": dense up to 2,000 free nodes, compressed above, so no N × N
 matrix is formed at the large steps.  Per step: DOFs, multipliers, η, energy
 (and for Example 1 the energy error), PDAS steps, seconds of assembly, solve
 and estimate, the cumulative wall time and the peak RSS so far.
@@ -88,9 +88,11 @@ def main(argv=None):
     args = ap.parse_args(argv)
     load = os.getloadavg()
     rows = run(args.example, args.s, args.theta, args.max_dofs, args.max_steps)
+    from fracfem.laplace import AUTO_DENSE_NODES
     intro = (f"Algorithm B, {args.example} (s = {args.s}, θ = {args.theta}, marking "
              f"η(Δ) > θ·η_max, from disk_uniform(2)), operator and pointwise (−Δ)ˢu_h "
-             f"'auto' (compressed above 8,000 free nodes), each solve started from the "
+             f"'auto' (compressed above {AUTO_DENSE_NODES:,} free nodes), each solve started "
+             f"from the "
              f"previous step's solution (warm_start): "
              f"`python benchmarks/bench_adaptive.py {' '.join(argv or sys.argv[1:])}`. "
              f"1-minute load average {load[0]:.1f} before the first step and "

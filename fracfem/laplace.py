@@ -20,7 +20,11 @@ from .meshes import validates
 from .preconditioners import multilevel_preconditioner
 
 OPERATORS = ("dense", "compressed", "auto")
-AUTO_DENSE_NODES = 8000   # "auto": dense up to this many free nodes (and if it fits)
+# "auto": dense up to this many free nodes (and if it fits), compressed above: where the
+# compressed operator's assembly and solve become the faster at one thread on every kind
+# of mesh the pipeline's 'auto' jobs see (benchmarks/auto-operator.md: dense/compressed
+# 0.64-1.63 below 2,000 free nodes, 1.04-2.93 from 1,985 on)
+AUTO_DENSE_NODES = 2000
 SOLVER_TOL = 1e-10        # relative PCG residual of solve_laplace
 
 __all__ = ["Discretisation", "discretise", "solve_laplace"]
@@ -84,7 +88,8 @@ def discretise(mesh, s: float, f=1.0, *, quadrature: QuadratureOptions | None = 
     operator: "dense" (an array; refused before assembly when it does not fit,
     limit ``$FRACFEM_MEMORY_LIMIT``), "compressed"
     (:func:`fracfem.compressed.stiffness_operator` with accuracy ``tol``) or
-    "auto" (dense up to 8,000 free nodes when it fits, else compressed).
+    "auto" (dense up to ``AUTO_DENSE_NODES`` = 2,000 free nodes when it fits, else
+    compressed).
     The mesh is checked once (:func:`fracfem.meshes.validate_mesh`).
     stiffness: a Discretisation of this mesh and s made before (other data f): its
     operator is reused instead of assembled, and only the load is computed.

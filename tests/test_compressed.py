@@ -108,11 +108,16 @@ def test_dg0_steps_with_compressed_operator_match_dense():
     assert len(its) == 6 and its[-1] < its[0]
 
 
-def test_discretise_operator_choice():
+def test_discretise_operator_choice(monkeypatch):
     import fracfem as ff
+    import fracfem.laplace as laplace
 
-    mesh = disk_uniform(3)
+    mesh = disk_uniform(3)                               # 113 free nodes
     assert ff.discretise(mesh, 0.5, operator="auto").dense
+    monkeypatch.setattr(laplace, "AUTO_DENSE_NODES", 113)
+    assert ff.discretise(mesh, 0.5, operator="auto").dense       # up to the threshold
+    monkeypatch.setattr(laplace, "AUTO_DENSE_NODES", 112)
+    assert not ff.discretise(mesh, 0.5, operator="auto").dense   # compressed above it
     assert not ff.discretise(mesh, 0.5, operator="compressed").dense
     with pytest.raises(ValueError, match="operator='sparse'"):
         ff.discretise(mesh, 0.5, operator="sparse")

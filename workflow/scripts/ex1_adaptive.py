@@ -15,7 +15,7 @@ logger = script_logger("ex1_adaptive")
 
 def main(s, theta, start_level, max_dofs, max_steps, quadrature, table, npz, log=None,
          threads=None, operator="dense"):
-    """operator: 'dense', 'compressed' or 'auto' (dense below 8,000 free nodes)."""
+    """operator: 'dense', 'compressed' or 'auto' (dense up to 2,000 free nodes)."""
     start(log, threads, operator_cache=False)   # its own meshes; it times each step
     quad = ff.QuadratureOptions(**quadrature)
     example = ff.Example1(s)

@@ -17,7 +17,7 @@ logger = script_logger("vi_adaptive")
 def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure_steps, tol,
          quadrature, table, npz, log=None, threads=None, operator="dense", family="adaptive"):
     """problem: the run's name; example, data: fracfem.example(example, **data);
-    operator: 'dense', 'compressed' or 'auto' (dense below 8,000 free nodes), the
+    operator: 'dense', 'compressed' or 'auto' (dense up to 2,000 free nodes), the
     matrix of every step and, through the estimator's default, its (−Δ)ˢu_h."""
     start(log, threads, operator_cache=False)   # its own meshes; it times each step
     quad = ff.QuadratureOptions(**quadrature)
