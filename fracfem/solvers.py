@@ -27,6 +27,7 @@ from __future__ import annotations
 import logging
 import time
 
+import numba
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
@@ -282,8 +283,9 @@ def uzawa(A, B, f, cset, *, rho=None, tol: float = 1e-10, maxiter: int = 100_000
     schur : (m, m) array, optional
         Precomputed S = BᵀA⁻¹B (:func:`schur_complement`).  Then the same
         iteration runs in the multiplier space, Bᵀu^n − g = BᵀA⁻¹f − g − Sλ^n
-        (m² instead of n² work per step; u is formed once at the end), and σ(S)
-        comes from it.
+        (at most m² instead of n² work per step, and only the rows of S where λ
+        changed once the active sets have settled: :class:`_SchurGradient`; u is
+        formed once at the end), and σ(S) comes from it.
 
     Returns
     -------
@@ -349,7 +351,52 @@ def _dual_gradient(factor, B, f, g, schur):
     if schur is None:
         return lambda lam: Bt @ _solve(factor, f - B @ lam) - g  # u^n, step 1
     d = Bt @ _solve(factor, f) - g
-    return lambda lam: d - schur @ lam
+    return _SchurGradient(d, schur)
+
+
+@numba.njit(cache=True)
+def _add_rows(out, S, rows, coef):
+    """out += Σ_a coef[a] S[rows[a], :], reading the rows of S in place (no copy of them)."""
+    for a in range(rows.size):
+        k = rows[a]
+        c = coef[a]
+        for j in range(S.shape[1]):
+            out[j] += c * S[k, j]
+
+
+class _SchurGradient:
+    """λ ↦ d − Sλ for a dense symmetric S, updated from the last product where λ changed:
+    S λ = S λ' + Σ_{k: λ_k ≠ λ'_k} (λ_k − λ'_k) S[k, :].  Once Uzawa's active sets have
+    settled only the free multipliers change (contact; stick), a few per cent of them, so a
+    step reads those rows of S instead of all of it.  The same iteration up to round-off:
+    the product is formed afresh every ``refresh`` updates and whenever more than
+    ``dense_fraction`` of λ changed, so the updates' rounding cannot accumulate."""
+
+    def __init__(self, d, S, *, refresh: int = 64, dense_fraction: float = 0.25):
+        self.d, self.S = d, S
+        self.refresh, self.dense_fraction = int(refresh), float(dense_fraction)
+        self._lam = None
+        self._Slam = None
+        self._updates = 0
+        self.rows_read = 0         # rows of S read so far (m per full product)
+
+    def __call__(self, lam):
+        lam = np.asarray(lam, dtype=float)
+        m = lam.shape[0]
+        if self._lam is not None and self._updates < self.refresh:
+            changed = np.flatnonzero(lam != self._lam)
+            if changed.size <= self.dense_fraction * m:
+                if changed.size:
+                    _add_rows(self._Slam, self.S, changed, lam[changed] - self._lam[changed])
+                    self._lam = lam.copy()
+                    self.rows_read += changed.size
+                self._updates += 1
+                return self.d - self._Slam
+        self._lam = lam.copy()
+        self._Slam = self.S @ lam
+        self.rows_read += m
+        self._updates = 0
+        return self.d - self._Slam
 
 
 def _uzawa_loop(dual_gradient, cset, rho, tol, maxiter, lam):

@@ -58,6 +58,7 @@ def warm_up() -> float:
         for ex in (ff.Example2(), ff.Example3()):
             ff.algorithm_b(lambda c, ex=ex: ex.problem(c), ff.disk_uniform(1), theta=0.5,
                            steps=2, marking="maximum", solver="pdas", f=ex.f)
+        ff.vi.solve(ff.Example2().problem(ff.disk_uniform(2)), "uzawa")   # Algorithm A
         for ex in (ff.Example4(), ff.Example5()):
             ff.algorithm_c(lambda c, ex=ex: ex.problem(c), ff.disk_uniform(1),
                            ex.initial_value, T=0.1, theta=0.5, iterations=2)
