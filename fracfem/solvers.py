@@ -368,12 +368,17 @@ class _SchurGradient:
     """λ ↦ d − Sλ for a dense symmetric S, updated from the last product where λ changed:
     S λ = S λ' + Σ_{k: λ_k ≠ λ'_k} (λ_k − λ'_k) S[k, :].  Once Uzawa's active sets have
     settled only the free multipliers change (contact; stick), a few per cent of them, so a
-    step reads those rows of S instead of all of it.  The same iteration up to round-off:
+    step reads those columns of S (rows, S being symmetric) instead of all of it.  The same
+    iteration up to round-off:
     the product is formed afresh every ``refresh`` updates and whenever more than
     ``dense_fraction`` of λ changed, so the updates' rounding cannot accumulate."""
 
     def __init__(self, d, S, *, refresh: int = 64, dense_fraction: float = 0.25):
-        self.d, self.S = d, S
+        self.d, self.S = d, np.ascontiguousarray(S, dtype=float)
+        # the update reads S[:, k] as the row k of Sᵀ: S itself when it is symmetric (as
+        # schur_complement makes it), else a copy of its transpose
+        self._rows = self.S if np.array_equal(self.S, self.S.T) \
+            else np.ascontiguousarray(self.S.T)
         self.refresh, self.dense_fraction = int(refresh), float(dense_fraction)
         self._lam = None
         self._Slam = None
@@ -387,7 +392,7 @@ class _SchurGradient:
             changed = np.flatnonzero(lam != self._lam)
             if changed.size <= self.dense_fraction * m:
                 if changed.size:
-                    _add_rows(self._Slam, self.S, changed, lam[changed] - self._lam[changed])
+                    _add_rows(self._Slam, self._rows, changed, lam[changed] - self._lam[changed])
                     self._lam = lam.copy()
                     self.rows_read += changed.size
                 self._updates += 1
