@@ -2,9 +2,10 @@
 
 Example 1 (f = 1, exact energy) or Example 2 (obstacle χ = 1 − 4|x|², PDAS with
 inner Krylov solves) from disk_uniform(2), the paper's marking η(Δ) > θ·η_max,
-until a step has at least ``--max-dofs`` free nodes.  Operator and pointwise
-(−Δ)ˢu_h "auto": dense up to 2,000 free nodes, compressed above, so no N × N
-matrix is formed at the large steps.  Per step: DOFs, multipliers, η, energy
+until a step has at least ``--max-dofs`` free nodes.  Operator "auto" (dense up to
+``fracfem.laplace.AUTO_DENSE_NODES`` free nodes, compressed above) and pointwise
+(−Δ)ˢu_h "auto" (compressed from ``fracfem.pointwise.AUTO_PAIRS`` point–edge pairs), so
+no N × N matrix is formed at the large steps.  Per step: DOFs, multipliers, η, energy
 (and for Example 1 the energy error), PDAS steps, seconds of assembly, solve
 and estimate, the cumulative wall time and the peak RSS so far.
 
@@ -90,10 +91,9 @@ def main(argv=None):
     rows = run(args.example, args.s, args.theta, args.max_dofs, args.max_steps)
     from fracfem.laplace import AUTO_DENSE_NODES
     intro = (f"Algorithm B, {args.example} (s = {args.s}, θ = {args.theta}, marking "
-             f"η(Δ) > θ·η_max, from disk_uniform(2)), operator and pointwise (−Δ)ˢu_h "
-             f"'auto' (compressed above {AUTO_DENSE_NODES:,} free nodes), each solve started "
-             f"from the "
-             f"previous step's solution (warm_start): "
+             f"η(Δ) > θ·η_max, from disk_uniform(2)), operator 'auto' (compressed "
+             f"above {AUTO_DENSE_NODES:,} free nodes) and pointwise (−Δ)ˢu_h 'auto', "
+             f"each solve started from the previous step's solution (warm_start): "
              f"`python benchmarks/bench_adaptive.py {' '.join(argv or sys.argv[1:])}`. "
              f"1-minute load average {load[0]:.1f} before the first step and "
              f"{os.getloadavg()[0]:.1f} after the last (2 cores); peak_rss_mb is the "

@@ -365,8 +365,8 @@ def _add_rows(out, S, rows, coef):
 
 
 class _SchurGradient:
-    """λ ↦ d − Sλ for a dense symmetric S, updated from the last product where λ changed:
-    S λ = S λ' + Σ_{k: λ_k ≠ λ'_k} (λ_k − λ'_k) S[k, :].  Once Uzawa's active sets have
+    """λ ↦ d − Sλ for a dense S, updated from the last product where λ changed:
+    S λ = S λ' + Σ_{k: λ_k ≠ λ'_k} (λ_k − λ'_k) S[:, k].  Once Uzawa's active sets have
     settled only the free multipliers change (contact; stick), a few per cent of them, so a
     step reads those columns of S (rows, S being symmetric) instead of all of it.  The same
     iteration up to round-off:
@@ -384,6 +384,7 @@ class _SchurGradient:
         self._Slam = None
         self._updates = 0
         self.rows_read = 0         # rows of S read so far (m per full product)
+        self.full_products = 0
 
     def __call__(self, lam):
         lam = np.asarray(lam, dtype=float)
@@ -400,6 +401,7 @@ class _SchurGradient:
         self._lam = lam.copy()
         self._Slam = self.S @ lam
         self.rows_read += m
+        self.full_products += 1
         self._updates = 0
         return self.d - self._Slam
 

@@ -295,19 +295,22 @@ def _check_schur_gradient(rng, S, m):
     from fracfem.solvers import _SchurGradient
 
     d = rng.standard_normal(m)
-    grad = _SchurGradient(d, S, refresh=16)
+    refresh, steps = 16, 200
+    grad = _SchurGradient(d, S, refresh=refresh)
     lam = np.zeros(m)
-    steps = 200
     for n in range(steps):
         if n % 50 == 49:
             lam = rng.standard_normal(m)                       # everything changes
-        else:
+        elif n % 7 == 3:
+            pass                                               # nothing changes
+        else:                                                  # a few, in place
             k = rng.choice(m, size=5, replace=False)
-            lam = lam.copy()
             lam[k] += rng.standard_normal(5)
         g = grad(lam)
         np.testing.assert_allclose(g, d - S @ lam, rtol=0,
                                    atol=1e-12 * np.abs(S).max() * np.abs(lam).sum())
+    # refreshed at least every refresh + 1 calls, and not much more often
+    assert steps / (refresh + 1) <= grad.full_products <= steps / refresh + 4 + 1
     assert grad.rows_read < 0.2 * steps * m
 
 

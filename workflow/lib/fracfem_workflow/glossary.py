@@ -347,6 +347,14 @@ GROUPS = [
         "estimate_s": "seconds of the step's estimator η (its pointwise (−Δ)ˢu_h included)",
         "cumulative_s": "seconds from the start of Algorithm B to the end of the step",
     }),
+    ("Dense or compressed for `operator=\"auto\"` (`benchmarks/auto-operator.md`)", False, {
+        "mesh_kind": "the mesh: a family member, or the (fine) mesh of an Algorithm B step",
+        "dense_total_s": "seconds to assemble the dense matrix and solve by Cholesky",
+        "compressed_total_s": "seconds to assemble the compressed operator and solve by "
+                              "preconditioned CG",
+        "dense_over_compressed": "`dense_total_s` / `compressed_total_s`",
+        "u_rel_diff": "max |u_dense − u_compressed| / max |u_dense|",
+    }),
     ("PCG with the multilevel preconditioner (`benchmarks/pcg.md`)", False, {
         "mesh": "the mesh, as the fracfem call that makes it",
         "condition": "condition estimate of the preconditioned operator: the ratio of "
