@@ -20,10 +20,11 @@ from .meshes import validates
 from .preconditioners import multilevel_preconditioner
 
 OPERATORS = ("dense", "compressed", "auto")
-# "auto": dense up to this many free nodes (and if it fits), compressed above: where the
-# compressed operator's assembly and solve become the faster at one thread on every kind
-# of mesh the pipeline's 'auto' jobs see (benchmarks/auto-operator.md: dense/compressed
-# 0.64-1.63 below 2,000 free nodes, 1.04-2.93 from 1,985 on)
+# "auto": dense up to this many free nodes (and if it fits), compressed above.  At one
+# thread (benchmarks/auto-operator.md) dense is the faster up to 2,017 free nodes
+# (dense/compressed 0.63-0.94), compressed from 3,273 on (1.45-2.37), the anisotropic
+# graded mesh of 3,626 nodes aside (0.98): the switch lies in between, and placed
+# anywhere there it costs a single solve at most 6 %.
 AUTO_DENSE_NODES = 2000
 SOLVER_TOL = 1e-10        # relative PCG residual of solve_laplace
 

@@ -283,7 +283,7 @@ def uzawa(A, B, f, cset, *, rho=None, tol: float = 1e-10, maxiter: int = 100_000
     schur : (m, m) array, optional
         Precomputed S = BᵀA⁻¹B (:func:`schur_complement`).  Then the same
         iteration runs in the multiplier space, Bᵀu^n − g = BᵀA⁻¹f − g − Sλ^n
-        (at most m² instead of n² work per step, and only the rows of S where λ
+        (at most m² instead of n² work per step, and only the columns of S where λ
         changed once the active sets have settled: :class:`_SchurGradient`; u is
         formed once at the end), and σ(S) comes from it.
 
@@ -369,9 +369,9 @@ class _SchurGradient:
     S λ = S λ' + Σ_{k: λ_k ≠ λ'_k} (λ_k − λ'_k) S[:, k].  Once Uzawa's active sets have
     settled only the free multipliers change (contact; stick), a few per cent of them, so a
     step reads those columns of S (rows, S being symmetric) instead of all of it.  The same
-    iteration up to round-off:
-    the product is formed afresh every ``refresh`` updates and whenever more than
-    ``dense_fraction`` of λ changed, so the updates' rounding cannot accumulate."""
+    iteration up to round-off: the product is formed afresh every ``refresh`` updates and
+    whenever more than ``dense_fraction`` of λ changed, so the updates' rounding cannot
+    accumulate."""
 
     def __init__(self, d, S, *, refresh: int = 64, dense_fraction: float = 0.25):
         self.d, self.S = d, np.ascontiguousarray(S, dtype=float)
@@ -393,7 +393,8 @@ class _SchurGradient:
             changed = np.flatnonzero(lam != self._lam)
             if changed.size <= self.dense_fraction * m:
                 if changed.size:
-                    _add_rows(self._Slam, self._rows, changed, lam[changed] - self._lam[changed])
+                    _add_rows(self._Slam, self._rows, changed,
+                              lam[changed] - self._lam[changed])
                     self._lam = lam.copy()
                     self.rows_read += changed.size
                 self._updates += 1
