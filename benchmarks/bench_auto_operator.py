@@ -39,13 +39,11 @@ def _steps(make, f, max_dofs, **options):
     """The (fine) meshes of Algorithm B's steps up to the first with max_dofs DOFs."""
     from fracfem import adaptive, disk_uniform
     out = []
-
-    def record(rec):
+    for rec in adaptive.algorithm_b_steps(make, disk_uniform(2), theta=0.5, steps=30,
+                                          marking="maximum", f=f, **options):
         out.append(rec.mesh)
-        return rec.dofs >= max_dofs
-
-    adaptive.algorithm_b(make, disk_uniform(2), theta=0.5, steps=30,
-                         marking="maximum", f=f, callback=record, **options)
+        if rec.dofs >= max_dofs:
+            break
     return out
 
 
