@@ -415,13 +415,15 @@ def _check_slabs(slabs, T, min_steps) -> list:
     return slabs
 
 
-def save_slabs(path, slabs, **arrays) -> None:
+def save_slabs(path, slabs, *, compress: bool = False, **arrays) -> None:
     """Write a space-time mesh (a list of :class:`Slab`: a, b, n_steps, coarse mesh)
     to the ``.npz`` file ``path``, each distinct coarse mesh once, so that slabs
     sharing a mesh share it again when read by :func:`load_slabs` (they pass u^k
     unchanged).  ``arrays``: further arrays to store beside it (names not starting
-    with ``slab_`` or ``coarse_``).  What a pass needs to continue Algorithm C from
-    (:func:`algorithm_c` with ``slabs=`` and ``first_iteration=``)."""
+    with ``slab_`` or ``coarse_``, and not ``compress``).  ``compress``: deflate the
+    file (``numpy.savez_compressed``; a copy to keep, about half the size, slower to
+    write).  What a pass needs to continue Algorithm C from (:func:`algorithm_c` with
+    ``slabs=`` and ``first_iteration=``)."""
     slabs = _slab_list(slabs)
     clash = [k for k in arrays if k.startswith(("slab_", "coarse_"))]
     if clash:
@@ -438,7 +440,7 @@ def save_slabs(path, slabs, **arrays) -> None:
     for m, mesh in enumerate(meshes):
         out[f"coarse_p{m}"] = np.asarray(mesh.p, dtype=float)
         out[f"coarse_t{m}"] = np.asarray(mesh.t, dtype=np.int64)
-    np.savez(path, **out, **arrays)
+    (np.savez_compressed if compress else np.savez)(path, **out, **arrays)
 
 
 def load_slabs(path) -> tuple[list, dict]:

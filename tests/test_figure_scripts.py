@@ -4,6 +4,7 @@ reference energy of Examples 2 and 3 (vi_errors)."""
 import importlib.util
 from pathlib import Path
 
+import hashlib
 import json
 import logging
 import re
@@ -595,6 +596,96 @@ def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch, ca
     ints = [c for c in whole if whole[c].dtype.kind == "i"]
     assert {"dofs", "spacetime_dofs", "slabs", "steps"} <= set(ints)
     assert [c for c in ints if cont[c].dtype.kind != "i"] == []
+
+
+def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeypatch):
+    """A checkpoint kept in the repository (keep_checkpoint: deflated, same slabs and
+    records) is where a job without one of its own starts; the run through it equals the
+    run through from pass 0, and the committed file is only read.  One made with other
+    settings, or behind the job's own checkpoint, is not used.  A reference identified
+    by its arrays: the same arrays written again are the same run."""
+    para_adaptive = script("para_adaptive")
+    m = ff.disk_uniform(2)
+    U = np.random.default_rng(1).standard_normal((3, m.p.shape[1]))
+    ref = tmp_path / "ref.npz"
+    np.savez(ref, p=m.p, t=m.t, times=np.array([0.0, 0.5, 1.0]), U=U, s=0.5)
+    again = tmp_path / "ref-again.npz"
+    np.savez_compressed(again, s=0.5, U=U, times=np.array([0.0, 0.5, 1.0]), t=m.t, p=m.p)
+    assert para_adaptive.run_digest(again) == para_adaptive.run_digest(ref)
+    np.savez(tmp_path / "ref-other.npz", p=m.p, t=m.t, times=np.array([0.0, 0.5, 1.0]),
+             U=U + 1e-15, s=0.5)
+    assert para_adaptive.run_digest(tmp_path / "ref-other.npz") != para_adaptive.run_digest(ref)
+    args = dict(problem="ex4-u2", example="ex4",
+                data={"s": 0.5, "u0": 2.0, "height": 1.0, "slope": 4.0}, T=1.0, theta=0.5,
+                start_level=1, c_tau=1.0, max_spacetime_dofs=10 ** 9, max_iterations=3,
+                figure_iterations=[1], output_times=[0.0, 0.4, 1.0], tol=1e-10,
+                quadrature={}, ref=str(ref), operator="dense")
+
+    def outputs(d, **kw):
+        d.mkdir()
+        para_adaptive.main(**args, table=d / "it.csv", npz=d / "m.npz", **kw)
+        return pd.read_csv(d / "it.csv")
+
+    whole = outputs(tmp_path / "whole")
+    real = ff.algorithm_c_steps
+
+    def ends_after_pass(n):
+        def steps(*a, **k):
+            for rec in real(*a, **k):
+                yield rec
+                if rec.iteration == n:
+                    raise _TimeLimit
+        return steps
+
+    # an earlier session: passes 0 and 1, kept
+    first = tmp_path / "session1" / "checkpoint.npz"
+    monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass(0))
+    with pytest.raises(_TimeLimit):
+        outputs(tmp_path / "session1", checkpoint=first)
+    assert para_adaptive.next_pass(first) == 1
+    monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass(1))
+    with pytest.raises(_TimeLimit):
+        outputs(tmp_path / "session1b", checkpoint=first)
+    kept = tmp_path / "data" / "ex4-u2-adaptive.npz"
+    para_adaptive.cli(["--keep", str(first), str(kept)])
+    s1, a1 = ff.load_slabs(first)
+    s2, a2 = ff.load_slabs(kept)
+    assert [(x.a, x.b, x.n_steps, x.coarse.p.shape) for x in s1] == [
+        (x.a, x.b, x.n_steps, x.coarse.p.shape) for x in s2]
+    assert sorted(a1) == sorted(a2) and str(a1["checkpoint_key"]) == str(a2["checkpoint_key"])
+    assert kept.stat().st_size < first.stat().st_size
+    digest = hashlib.sha256(kept.read_bytes()).hexdigest()
+    # a new session: no checkpoint of its own, the reference written again
+    monkeypatch.setattr(ff, "algorithm_c_steps", real)
+    args["ref"] = str(again)
+    own = tmp_path / "session2" / "checkpoint.npz"
+    cont = outputs(tmp_path / "session2", checkpoint=own, committed=kept)
+    assert cont.invocation.tolist() == [0, 1, 2]
+    assert cont.spacetime_dofs.tolist() == whole.spacetime_dofs.tolist()
+    np.testing.assert_allclose(cont.eta, whole.eta, rtol=1e-12)
+    np.testing.assert_allclose(cont.error, whole.error, rtol=1e-10)
+    assert not own.exists() and hashlib.sha256(kept.read_bytes()).hexdigest() == digest
+    # the job's own checkpoint, further on than the committed one, is the one continued
+    monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass(0))
+    with pytest.raises(_TimeLimit):
+        outputs(tmp_path / "s3", checkpoint=own)          # own: pass 1 next
+    monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass(1))
+    with pytest.raises(_TimeLimit):
+        outputs(tmp_path / "s3b", checkpoint=own)         # own: pass 2 next
+    assert not para_adaptive.seed_checkpoint(own, kept)   # kept: pass 2 next, not later
+    monkeypatch.setattr(ff, "algorithm_c_steps", real)
+    own.unlink()
+    # a committed checkpoint of other settings is not continued, and stays
+    args["theta"] = 0.6
+    other = outputs(tmp_path / "session4", checkpoint=own, committed=kept)
+    assert other.invocation.tolist() == [0] * len(other)
+    assert hashlib.sha256(kept.read_bytes()).hexdigest() == digest and not own.exists()
+    # nor with a reference of other values
+    args["theta"], args["ref"] = 0.5, str(tmp_path / "ref-other.npz")
+    other = outputs(tmp_path / "session5", checkpoint=own, committed=kept)
+    assert other.invocation.tolist() == [0, 0, 0]
+    with pytest.raises(SystemExit):
+        para_adaptive.cli(["--keep", str(tmp_path / "none.npz"), str(tmp_path / "x.npz")])
 
 
 def test_results_page_names_one_file_per_problem_of_each_list(tmp_path):

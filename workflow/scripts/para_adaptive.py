@@ -4,9 +4,17 @@ Each pass that does not end the run leaves what the next one needs in a checkpoi
 file (its space-time mesh, the table rows and arrays so far); started again with the
 same settings, the job continues from there, so a job ended by a time limit or a lost
 machine loses at most the pass it was in.  The checkpoint goes when the outputs are
-written."""
+written.
+
+A checkpoint can also be kept in the repository (parabolic.adaptive.committed_checkpoints,
+written by ``python workflow/scripts/para_adaptive.py --keep CHECKPOINT COPY``): a job
+without a checkpoint of its own, or with an earlier one, starts from a copy of it, so a
+run longer than one machine's session goes on from where the last session stopped.  The
+committed file itself is only read."""
+import argparse
 import hashlib
 import json
+import shutil
 import time
 from pathlib import Path
 
@@ -34,12 +42,16 @@ def _plain(value):
     return value.item() if hasattr(value, "item") else float(value)
 
 
-def file_digest(path) -> str:
-    """SHA-256 of a file: a reference computed again is another reference."""
+def run_digest(path) -> str:
+    """SHA-256 of the arrays of a run's ``.npz`` (names, types, shapes and values; not the
+    file's bytes, which hold the time it was written): a run computed again to the same
+    bits is the same run, one that differs by round-off is another."""
     h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 22), b""):
-            h.update(block)
+    with np.load(path, allow_pickle=False) as d:
+        for k in sorted(d.files):
+            a = np.ascontiguousarray(d[k])
+            h.update(f"{k}:{a.dtype.str}:{a.shape};".encode())
+            h.update(a.tobytes())
     return h.hexdigest()
 
 
@@ -90,10 +102,50 @@ def load_checkpoint(path, key, max_spacetime_dofs, max_iterations):
     return slabs, first, rows, d, elapsed, t_eval, invocation
 
 
+def next_pass(path) -> int:
+    """The pass a checkpoint continues with (-1: no such file)."""
+    path = Path(path)
+    if not path.exists():
+        return -1
+    with np.load(path, allow_pickle=False) as d:
+        return int(d["checkpoint_iteration"])
+
+
+def seed_checkpoint(checkpoint, committed):
+    """Copy the committed checkpoint to the job's own path when the job has none, or one
+    that continues with an earlier pass; the settings are checked as for any checkpoint
+    (load_checkpoint), and a copy made with other settings is removed, never the
+    committed file.  Returns whether it copied."""
+    if committed is None or not Path(committed).exists():
+        return False
+    ours, kept = next_pass(checkpoint), next_pass(committed)
+    if kept <= ours:
+        return False
+    Path(checkpoint).parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(checkpoint, suffix=".npz") as tmp:
+        shutil.copyfile(committed, tmp)
+    logger.info("starting from the committed checkpoint %s (pass %d; the job's own: %s)",
+                committed, kept, "none" if ours < 0 else f"pass {ours}")
+    return True
+
+
+def keep_checkpoint(checkpoint, copy):
+    """Write a job's checkpoint, deflated, to ``copy`` (the file kept in the repository
+    for parabolic.adaptive.committed_checkpoints); the same slabs and records."""
+    slabs, arrays = ff.load_slabs(checkpoint)
+    Path(copy).parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(copy, suffix=".npz") as tmp:
+        ff.save_slabs(tmp, slabs, compress=True, **arrays)
+    rows = json.loads(str(arrays["checkpoint_rows"]))
+    logger.info("%s -> %s: passes 0-%d recorded, pass %d next (%d slabs), %.1f MB",
+                checkpoint, copy, len(rows) - 1, int(arrays["checkpoint_iteration"]),
+                len(slabs), Path(copy).stat().st_size / 1e6)
+
+
 def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
          max_iterations, figure_iterations, output_times, tol, quadrature, ref, table, npz,
          log=None, threads=None, operator="dense", ref_operator=None, checkpoint=None,
-         coarser=(), family=None):
+         coarser=(), family=None, committed=None):
     """problem: the run's name; example, data: fracfem.example(example, **data); ref: the
     reference run the errors are measured against, coarser: the coarser runs of its family
     (coarsest first; the error is the distance to the family's limit, runs.family_error),
@@ -101,7 +153,8 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     operator: each slab's stiffness ('dense', 'compressed', 'auto'); ref_operator: the reference's operator, saved by
     para_reference_operator (None: assembled here); checkpoint: the file each pass that
     does not end the run is saved to, and continued from when the job starts again
-    (None: none)."""
+    (None: none); committed: a checkpoint kept in the repository, continued from when it
+    is further on than the job's own (seed_checkpoint; None: none)."""
     start(log, threads, operator_cache=False)   # its own meshes; it times each step
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
@@ -110,7 +163,9 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         problem=problem, example=example, data=data, T=T, theta=theta,
         start_level=start_level, c_tau=c_tau, figure_iterations=sorted(figure_iterations),
         output_times=list(output_times), tol=tol, quadrature=quadrature, operator=operator,
-        ref=file_digest(ref), coarser=[file_digest(c) for c in coarser])
+        ref=run_digest(ref), coarser=[run_digest(c) for c in coarser])
+    if checkpoint is not None:
+        seed_checkpoint(checkpoint, committed)
     state = (None if checkpoint is None else
              load_checkpoint(checkpoint, key, max_spacetime_dofs, max_iterations))
     slabs, first, rows, arrays, elapsed, t_done_eval, invocation = (
@@ -203,7 +258,19 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         Path(checkpoint).unlink(missing_ok=True)   # the run is complete: nothing to continue
 
 
-if __name__ == "__main__":
+def cli(argv=None):
+    ap = argparse.ArgumentParser(description=keep_checkpoint.__doc__)
+    ap.add_argument("--keep", nargs=2, metavar=("CHECKPOINT", "COPY"), required=True,
+                    help="a job's checkpoint.npz and the committed copy to write")
+    a = ap.parse_args(argv)
+    if not Path(a.keep[0]).exists():
+        ap.error(f"--keep: no checkpoint {a.keep[0]}")
+    keep_checkpoint(*a.keep)
+
+
+if __name__ == "__main__" and "snakemake" not in globals():
+    cli()
+elif __name__ == "__main__":
     main(snakemake.wildcards.problem, snakemake.params.example,  # noqa: F821
          snakemake.params.data, snakemake.params.T, snakemake.params.theta,  # noqa: F821
          snakemake.params.start_level, snakemake.params.c_tau,  # noqa: F821
@@ -213,4 +280,5 @@ if __name__ == "__main__":
          snakemake.output.table, snakemake.output.npz, snakemake.log[0],  # noqa: F821
          snakemake.threads, snakemake.params.operator,  # noqa: F821
          snakemake.input.operator, snakemake.params.checkpoint,  # noqa: F821
-         list(snakemake.input.coarser), snakemake.input.get("family"))  # noqa: F821
+         list(snakemake.input.coarser), snakemake.input.get("family"),  # noqa: F821
+         snakemake.params.committed)  # noqa: F821
