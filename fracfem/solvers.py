@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import logging
 import time
+import weakref
 
 import numba
 import numpy as np
@@ -102,7 +103,9 @@ def schur_complement(factor, B, block: int = 512) -> np.ndarray:
     for start in range(0, m, block):
         cols = slice(start, min(start + block, m))
         S[:, cols] = Bt @ _solve(factor, B[:, cols].toarray())
-    return 0.5 * (S + S.T)
+    S = 0.5 * (S + S.T)     # exactly symmetric: a + b = b + a in floating point
+    _SYMMETRIC[id(S)] = S   # _check_schur need not scan it again (a time step each)
+    return S
 
 
 def _schur_operator(factor, B):
@@ -221,11 +224,35 @@ def _is_operator(A, factor, schur, krylov) -> bool:
     return False
 
 
-def _check_schur(schur, m):
-    """A precomputed S = BᵀA⁻¹B of shape (m, m)."""
+SCHUR_ASYMMETRY = 1e-8   # largest |S − Sᵀ| / max|S| taken as round-off in a given S
+# the arrays schur_complement made (symmetric by construction), while they live
+_SYMMETRIC = weakref.WeakValueDictionary()
+
+
+def _check_schur(schur, m, block: int = 1024):
+    """A precomputed S = BᵀA⁻¹B of shape (m, m): finite and symmetric (the step size's
+    eigvalsh, PDAS and the Uzawa update assume it).  An asymmetry of round-off size (at
+    most SCHUR_ASYMMETRY of its largest entry, as when S was formed column by column) is
+    removed, S replaced by (S + Sᵀ)/2; a larger one is refused.  Compared in row blocks
+    (no m × m temporary); an S that :func:`schur_complement` returned is not scanned
+    again (it is symmetric by construction; one changed in place since is not seen)."""
+    if _SYMMETRIC.get(id(schur)) is schur and schur.shape == (m, m):
+        return schur
     schur = np.asarray(schur, dtype=float)
     if schur.shape != (m, m):
         raise ValueError(f"schur must have shape ({m}, {m}); got {schur.shape}")
+    if not np.all(np.isfinite(schur)):
+        raise ValueError("schur must be finite; it holds inf or nan")
+    scale, asym = np.max(np.abs(schur), initial=0.0), 0.0
+    for i in range(0, m, block):
+        rows = slice(i, min(i + block, m))
+        asym = max(asym, np.max(np.abs(schur[rows] - schur[:, rows].T), initial=0.0))
+    if asym > SCHUR_ASYMMETRY * scale:
+        raise ValueError(f"schur must be symmetric (S = BᵀA⁻¹B): its largest |S − Sᵀ| is "
+                         f"{asym:.3g}, {asym / scale:.3g} of its largest entry (allowed: "
+                         f"{SCHUR_ASYMMETRY:g})")
+    if asym > 0.0:
+        schur = 0.5 * (schur + schur.T)
     return schur
 
 
@@ -368,17 +395,14 @@ class _SchurGradient:
     """λ ↦ d − Sλ for a dense S, updated from the last product where λ changed:
     S λ = S λ' + Σ_{k: λ_k ≠ λ'_k} (λ_k − λ'_k) S[:, k].  Once Uzawa's active sets have
     settled only the free multipliers change (contact; stick), a few per cent of them, so a
-    step reads those columns of S (rows, S being symmetric) instead of all of it.  The same
+    step reads those columns of S (its rows: S is symmetric) instead of all of it.  The same
     iteration up to round-off: the product is formed afresh every ``refresh`` updates and
     whenever more than ``dense_fraction`` of λ changed, so the updates' rounding cannot
     accumulate."""
 
     def __init__(self, d, S, *, refresh: int = 64, dense_fraction: float = 0.25):
+        # S symmetric (schur_complement, _check_schur): the update reads S[:, k] as row k
         self.d, self.S = d, np.ascontiguousarray(S, dtype=float)
-        # the update reads S[:, k] as the row k of Sᵀ: S itself when it is symmetric (as
-        # schur_complement makes it), else a copy of its transpose
-        self._rows = self.S if np.array_equal(self.S, self.S.T) \
-            else np.ascontiguousarray(self.S.T)
         self.refresh, self.dense_fraction = int(refresh), float(dense_fraction)
         self._lam = None
         self._Slam = None
@@ -393,7 +417,7 @@ class _SchurGradient:
             changed = np.flatnonzero(lam != self._lam)
             if changed.size <= self.dense_fraction * m:
                 if changed.size:
-                    _add_rows(self._Slam, self._rows, changed,
+                    _add_rows(self._Slam, self.S, changed,
                               lam[changed] - self._lam[changed])
                     self._lam = lam.copy()
                     self.rows_read += changed.size
