@@ -104,7 +104,8 @@ def schur_complement(factor, B, block: int = 512) -> np.ndarray:
         cols = slice(start, min(start + block, m))
         S[:, cols] = Bt @ _solve(factor, B[:, cols].toarray())
     S = 0.5 * (S + S.T)     # exactly symmetric: a + b = b + a in floating point
-    _SYMMETRIC[id(S)] = S   # _check_schur need not scan it again (a time step each)
+    S.flags.writeable = False   # so that it stays so: _check_schur does not scan it again
+    _SYMMETRIC[id(S)] = S
     return S
 
 
@@ -235,15 +236,16 @@ def _check_schur(schur, m, block: int = 1024):
     most SCHUR_ASYMMETRY of its largest entry, as when S was formed column by column) is
     removed, S replaced by (S + Sᵀ)/2; a larger one is refused.  Compared in row blocks
     (no m × m temporary); an S that :func:`schur_complement` returned is not scanned
-    again (it is symmetric by construction; one changed in place since is not seen)."""
+    again (it is symmetric by construction, and read-only)."""
     if _SYMMETRIC.get(id(schur)) is schur and schur.shape == (m, m):
         return schur
     schur = np.asarray(schur, dtype=float)
     if schur.shape != (m, m):
         raise ValueError(f"schur must have shape ({m}, {m}); got {schur.shape}")
-    if not np.all(np.isfinite(schur)):
-        raise ValueError("schur must be finite; it holds inf or nan")
-    scale, asym = np.max(np.abs(schur), initial=0.0), 0.0
+    scale, asym = (max(schur.max(), -schur.min()) if m else 0.0), 0.0
+    if not np.isfinite(scale):
+        raise ValueError(f"schur must be finite; it holds {np.sum(~np.isfinite(schur))} "
+                         "inf or nan entries")
     for i in range(0, m, block):
         rows = slice(i, min(i + block, m))
         asym = max(asym, np.max(np.abs(schur[rows] - schur[:, rows].T), initial=0.0))

@@ -8,6 +8,7 @@ import hashlib
 import json
 import logging
 import re
+import shutil
 
 import numpy as np
 import pandas as pd
@@ -600,10 +601,11 @@ def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch, ca
 
 def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeypatch):
     """A checkpoint kept in the repository (keep_checkpoint: deflated, same slabs and
-    records) is where a job without one of its own starts; the run through it equals the
-    run through from pass 0, and the committed file is only read.  One made with other
-    settings, or behind the job's own checkpoint, is not used.  A reference identified
-    by its arrays: the same arrays written again are the same run."""
+    records; an earlier one does not replace it) is where a job without one of its own
+    starts; the run through it equals the run through from pass 0, and the committed file
+    is only read.  One made with other settings, or not further on than the job's own
+    checkpoint, is not used, and the job's own stays.  A reference is identified by its
+    arrays: the same arrays written again are the same run."""
     para_adaptive = script("para_adaptive")
     m = ff.disk_uniform(2)
     U = np.random.default_rng(1).standard_normal((3, m.p.shape[1]))
@@ -637,15 +639,17 @@ def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeyp
                     raise _TimeLimit
         return steps
 
-    # an earlier session: passes 0 and 1, kept
-    first = tmp_path / "session1" / "checkpoint.npz"
+    # an earlier allocation: passes 0 and 1, kept after each
+    first = tmp_path / "alloc1" / "checkpoint.npz"
     monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass(0))
     with pytest.raises(_TimeLimit):
-        outputs(tmp_path / "session1", checkpoint=first)
+        outputs(tmp_path / "alloc1", checkpoint=first)
     assert para_adaptive.next_pass(first) == 1
+    kept1 = tmp_path / "data" / "pass1.npz"
+    para_adaptive.cli(["--keep", str(first), str(kept1)])
     monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass(1))
     with pytest.raises(_TimeLimit):
-        outputs(tmp_path / "session1b", checkpoint=first)
+        outputs(tmp_path / "alloc1b", checkpoint=first)
     kept = tmp_path / "data" / "ex4-u2-adaptive.npz"
     para_adaptive.cli(["--keep", str(first), str(kept)])
     s1, a1 = ff.load_slabs(first)
@@ -654,38 +658,51 @@ def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeyp
         (x.a, x.b, x.n_steps, x.coarse.p.shape) for x in s2]
     assert sorted(a1) == sorted(a2) and str(a1["checkpoint_key"]) == str(a2["checkpoint_key"])
     assert kept.stat().st_size < first.stat().st_size
+    # a copy further on is not replaced by an earlier one without --force
+    with pytest.raises(SystemExit):
+        para_adaptive.cli(["--keep", str(tmp_path / "alloc1" / "none.npz"), str(kept)])
+    shutil.copyfile(kept1, tmp_path / "pass1-job.npz")
+    with pytest.raises(ValueError, match="continues with pass 2.*--force"):
+        para_adaptive.keep_checkpoint(tmp_path / "pass1-job.npz", kept)
     digest = hashlib.sha256(kept.read_bytes()).hexdigest()
-    # a new session: no checkpoint of its own, the reference written again
+    # a fresh clone: no checkpoint of its own, the reference written again
     monkeypatch.setattr(ff, "algorithm_c_steps", real)
     args["ref"] = str(again)
-    own = tmp_path / "session2" / "checkpoint.npz"
-    cont = outputs(tmp_path / "session2", checkpoint=own, committed=kept)
+    own = tmp_path / "alloc2" / "checkpoint.npz"
+    cont = outputs(tmp_path / "alloc2", checkpoint=own, committed=kept)
     assert cont.invocation.tolist() == [0, 1, 2]
     assert cont.spacetime_dofs.tolist() == whole.spacetime_dofs.tolist()
     np.testing.assert_allclose(cont.eta, whole.eta, rtol=1e-12)
     np.testing.assert_allclose(cont.error, whole.error, rtol=1e-10)
     assert not own.exists() and hashlib.sha256(kept.read_bytes()).hexdigest() == digest
-    # the job's own checkpoint, further on than the committed one, is the one continued
-    monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass(0))
-    with pytest.raises(_TimeLimit):
-        outputs(tmp_path / "s3", checkpoint=own)          # own: pass 1 next
+    # the job's own checkpoint at the same pass as the committed one, or further on, stays
     monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass(1))
     with pytest.raises(_TimeLimit):
-        outputs(tmp_path / "s3b", checkpoint=own)         # own: pass 2 next
-    assert not para_adaptive.seed_checkpoint(own, kept)   # kept: pass 2 next, not later
-    monkeypatch.setattr(ff, "algorithm_c_steps", real)
+        outputs(tmp_path / "a3", checkpoint=own)               # own: pass 2 next
+    key = str(np.load(own)["checkpoint_key"])
+    mtime = own.stat().st_mtime_ns
+    for behind in (kept1, kept):                               # pass 1, pass 2 next
+        assert not para_adaptive.seed_checkpoint(own, behind, key, 10 ** 9, 3)
+    assert own.stat().st_mtime_ns == mtime
     own.unlink()
-    # a committed checkpoint of other settings is not continued, and stays
+    # a committed checkpoint of other settings is not continued, and the job's own
+    # checkpoint (behind it, but its own settings) is the one continued
     args["theta"] = 0.6
-    other = outputs(tmp_path / "session4", checkpoint=own, committed=kept)
-    assert other.invocation.tolist() == [0] * len(other)
-    assert hashlib.sha256(kept.read_bytes()).hexdigest() == digest and not own.exists()
+    monkeypatch.setattr(ff, "algorithm_c_steps", ends_after_pass(0))
+    with pytest.raises(_TimeLimit):
+        outputs(tmp_path / "a4", checkpoint=own)               # own: pass 1 next, θ = 0.6
+    monkeypatch.setattr(ff, "algorithm_c_steps", real)
+    other = outputs(tmp_path / "a4b", checkpoint=own, committed=kept)
+    assert other.invocation.tolist() == [0, 1, 1] and not own.exists()
+    assert hashlib.sha256(kept.read_bytes()).hexdigest() == digest
     # nor with a reference of other values
     args["theta"], args["ref"] = 0.5, str(tmp_path / "ref-other.npz")
-    other = outputs(tmp_path / "session5", checkpoint=own, committed=kept)
+    other = outputs(tmp_path / "a5", checkpoint=own, committed=kept)
     assert other.invocation.tolist() == [0, 0, 0]
-    with pytest.raises(SystemExit):
-        para_adaptive.cli(["--keep", str(tmp_path / "none.npz"), str(tmp_path / "x.npz")])
+    assert hashlib.sha256(kept.read_bytes()).hexdigest() == digest
+    made = str(np.load(kept)["checkpoint_key"])
+    assert para_adaptive.key_differences(made, made.replace(
+        json.loads(made)["ref"], "0" * 64)) == ["ref"]
 
 
 def test_results_page_names_one_file_per_problem_of_each_list(tmp_path):

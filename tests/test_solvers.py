@@ -289,8 +289,11 @@ def test_factor_reuse_and_warm_start():
                 np.ones_like(S), 1))
     with pytest.raises(ValueError, match="schur must be finite"):
         uzawa(None, B, f, cset, factor=factor, schur=np.where(S == S.max(), np.nan, S))
-    from fracfem.solvers import _check_schur
-    assert _check_schur(S, S.shape[0]) is S                # schur_complement's: not copied
+    from fracfem import solvers
+    assert solvers._SYMMETRIC.get(id(S)) is S and not S.flags.writeable   # not scanned again
+    with pytest.raises(ValueError, match="read-only"):
+        S[0, 1] += 1.0
+    _check_schur = solvers._check_schur
     np.testing.assert_array_equal(_check_schur(S + E, S.shape[0]),
                                   _check_schur(S + E, S.shape[0]).T)
 

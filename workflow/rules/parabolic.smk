@@ -121,7 +121,7 @@ rule para_adaptive:
         # again (a time limit, a lost machine), and removes it when done
         checkpoint=lambda wc: f"{RES}/para/{wc.problem}/adaptive/checkpoint.npz",
         # a checkpoint kept in the repository: the job starts from a copy of it when it is
-        # further on than the job's own (a run longer than one session; docs/cluster.md)
+        # further on than the job's own (a run longer than one allocation; docs/cluster.md)
         committed=lambda wc: (None if PARA["adaptive"]["committed_checkpoints"] is None else
                               str(Path(workflow.basedir) / PARA["adaptive"]["committed_checkpoints"]
                                   / f"{wc.problem}-adaptive.npz")),

@@ -8,9 +8,9 @@ written.
 
 A checkpoint can also be kept in the repository (parabolic.adaptive.committed_checkpoints,
 written by ``python workflow/scripts/para_adaptive.py --keep CHECKPOINT COPY``): a job
-without a checkpoint of its own, or with an earlier one, starts from a copy of it, so a
-run longer than one machine's session goes on from where the last session stopped.  The
-committed file itself is only read."""
+without a checkpoint of its own it can continue, or with an earlier one, starts from a copy
+of it, so a run longer than one allocation goes on in a fresh clone from where the last one
+stopped.  The committed file itself is only read."""
 import argparse
 import hashlib
 import json
@@ -75,6 +75,30 @@ def log_next_pass(iteration, slabs, s, c_tau):
                 size["steps"], size["max_dofs_per_step"])
 
 
+def key_differences(made, key) -> list:
+    """The settings in which a checkpoint's key ``made`` differs from ``key`` (JSON)."""
+    a, b = json.loads(made), json.loads(key)
+    return sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+
+
+def why_not(path, key, max_spacetime_dofs, max_iterations):
+    """(next pass, None) of a checkpoint this run can continue, else (-1, why not): none,
+    made with other settings (named), or holding a pass at which this run would have
+    stopped."""
+    path = Path(path)
+    if not path.exists():
+        return -1, "no such file"
+    with np.load(path, allow_pickle=False) as d:
+        made, first = str(d["checkpoint_key"]), int(d["checkpoint_iteration"])
+        rows = json.loads(str(d["checkpoint_rows"]))
+    if made != key:
+        return -1, f"made with other settings (differing in {key_differences(made, key)})"
+    if first >= max_iterations or max(r["spacetime_dofs"] for r in rows) >= max_spacetime_dofs:
+        return -1, (f"goes beyond max_iterations={max_iterations} or "
+                    f"max_spacetime_dofs={max_spacetime_dofs}")
+    return first, None
+
+
 def load_checkpoint(path, key, max_spacetime_dofs, max_iterations):
     """(slabs, first iteration, rows, arrays, elapsed, t_eval, invocation) of a checkpoint
     made with ``key``; None if there is none, or it was made with other settings or
@@ -83,18 +107,15 @@ def load_checkpoint(path, key, max_spacetime_dofs, max_iterations):
     path = Path(path)
     if not path.exists():
         return None
+    first, why = why_not(path, key, max_spacetime_dofs, max_iterations)
+    if why is not None:
+        logger.warning("%s %s: starting from pass 0", path, why)
+        path.unlink()
+        return None
     slabs, d = ff.load_slabs(path)
-    first = int(d.pop("checkpoint_iteration"))
+    for k in ("checkpoint_iteration", "checkpoint_key"):
+        d.pop(k)
     rows = json.loads(str(d.pop("checkpoint_rows")))
-    if str(d.pop("checkpoint_key")) != key:
-        logger.warning("%s was made with other settings: starting from pass 0", path)
-        path.unlink()
-        return None
-    if first >= max_iterations or max(r["spacetime_dofs"] for r in rows) >= max_spacetime_dofs:
-        logger.warning("%s goes beyond max_iterations=%d or max_spacetime_dofs=%d: "
-                       "starting from pass 0", path, max_iterations, max_spacetime_dofs)
-        path.unlink()
-        return None
     elapsed, t_eval = float(d.pop("checkpoint_elapsed")), float(d.pop("checkpoint_t_eval"))
     invocation = int(d.pop("checkpoint_invocation")) + 1
     logger.info("continuing from %s: pass %d on %d slabs (passes 0-%d recorded, %.1f s)",
@@ -111,27 +132,44 @@ def next_pass(path) -> int:
         return int(d["checkpoint_iteration"])
 
 
-def seed_checkpoint(checkpoint, committed):
-    """Copy the committed checkpoint to the job's own path when the job has none, or one
-    that continues with an earlier pass; the settings are checked as for any checkpoint
-    (load_checkpoint), and a copy made with other settings is removed, never the
-    committed file.  Returns whether it copied."""
+def seed_checkpoint(checkpoint, committed, key, max_spacetime_dofs, max_iterations):
+    """Copy the committed checkpoint to the job's own path when this run can continue it
+    (why_not) and the job's own is missing, not continuable, or at an earlier pass.  A
+    committed checkpoint that cannot be continued is named in the log with the reason,
+    and neither it nor the job's own checkpoint is touched.  Returns whether it copied."""
     if committed is None or not Path(committed).exists():
         return False
-    ours, kept = next_pass(checkpoint), next_pass(committed)
+    kept, why = why_not(committed, key, max_spacetime_dofs, max_iterations)
+    if why is not None:
+        logger.warning("the committed checkpoint %s is not continued: %s", committed, why)
+        return False
+    ours, _ = why_not(checkpoint, key, max_spacetime_dofs, max_iterations)
     if kept <= ours:
         return False
     Path(checkpoint).parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(checkpoint, suffix=".npz") as tmp:
         shutil.copyfile(committed, tmp)
     logger.info("starting from the committed checkpoint %s (pass %d; the job's own: %s)",
-                committed, kept, "none" if ours < 0 else f"pass {ours}")
+                committed, kept, "none usable" if ours < 0 else f"pass {ours}")
     return True
 
 
-def keep_checkpoint(checkpoint, copy):
+def keep_checkpoint(checkpoint, copy, force=False):
     """Write a job's checkpoint, deflated, to ``copy`` (the file kept in the repository
-    for parabolic.adaptive.committed_checkpoints); the same slabs and records."""
+    for parabolic.adaptive.committed_checkpoints); the same slabs and records.  An
+    existing copy that is further on, or was made with other settings, is replaced only
+    with ``force`` (else ValueError)."""
+    if Path(copy).exists() and not force:
+        with np.load(copy, allow_pickle=False) as d:
+            made = str(d["checkpoint_key"])
+        with np.load(checkpoint, allow_pickle=False) as d:
+            key = str(d["checkpoint_key"])
+        if made != key:
+            raise ValueError(f"{copy} was made with other settings than {checkpoint} "
+                             f"(differing in {key_differences(made, key)}): --force replaces it")
+        if next_pass(copy) > next_pass(checkpoint):
+            raise ValueError(f"{copy} continues with pass {next_pass(copy)}, {checkpoint} "
+                             f"with pass {next_pass(checkpoint)}: --force replaces it")
     slabs, arrays = ff.load_slabs(checkpoint)
     Path(copy).parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(copy, suffix=".npz") as tmp:
@@ -165,7 +203,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         output_times=list(output_times), tol=tol, quadrature=quadrature, operator=operator,
         ref=run_digest(ref), coarser=[run_digest(c) for c in coarser])
     if checkpoint is not None:
-        seed_checkpoint(checkpoint, committed)
+        seed_checkpoint(checkpoint, committed, key, max_spacetime_dofs, max_iterations)
     state = (None if checkpoint is None else
              load_checkpoint(checkpoint, key, max_spacetime_dofs, max_iterations))
     slabs, first, rows, arrays, elapsed, t_done_eval, invocation = (
@@ -262,10 +300,15 @@ def cli(argv=None):
     ap = argparse.ArgumentParser(description=keep_checkpoint.__doc__)
     ap.add_argument("--keep", nargs=2, metavar=("CHECKPOINT", "COPY"), required=True,
                     help="a job's checkpoint.npz and the committed copy to write")
+    ap.add_argument("--force", action="store_true",
+                    help="replace a copy that is further on or of other settings")
     a = ap.parse_args(argv)
     if not Path(a.keep[0]).exists():
         ap.error(f"--keep: no checkpoint {a.keep[0]}")
-    keep_checkpoint(*a.keep)
+    try:
+        keep_checkpoint(*a.keep, force=a.force)
+    except ValueError as e:
+        ap.error(str(e))
 
 
 if __name__ == "__main__" and "snakemake" not in globals():
