@@ -421,9 +421,9 @@ def save_slabs(path, slabs, *, compress: bool = False, **arrays) -> None:
     sharing a mesh share it again when read by :func:`load_slabs` (they pass u^k
     unchanged).  ``arrays``: further arrays to store beside it (names not starting
     with ``slab_`` or ``coarse_``, and not ``compress``).  ``compress``: deflate the
-    file (``numpy.savez_compressed``; a copy to keep, about half the size, slower to
-    write).  What a pass needs to continue Algorithm C from (:func:`algorithm_c` with
-    ``slabs=`` and ``first_iteration=``)."""
+    file (``numpy.savez_compressed``: a copy to keep; Algorithm C's checkpoints shrink
+    about fivefold, and take longer to write).  What a pass needs to continue
+    Algorithm C from (:func:`algorithm_c` with ``slabs=`` and ``first_iteration=``)."""
     slabs = _slab_list(slabs)
     clash = [k for k in arrays if k.startswith(("slab_", "coarse_"))]
     if clash:

@@ -14,6 +14,7 @@ stopped.  The committed file itself is only read."""
 import argparse
 import hashlib
 import json
+import logging
 import shutil
 import time
 from pathlib import Path
@@ -303,6 +304,7 @@ def cli(argv=None):
     ap.add_argument("--force", action="store_true",
                     help="replace a copy that is further on or of other settings")
     a = ap.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
     if not Path(a.keep[0]).exists():
         ap.error(f"--keep: no checkpoint {a.keep[0]}")
     try:
