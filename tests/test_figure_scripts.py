@@ -514,14 +514,19 @@ class _TimeLimit(Exception):
     """Stands for the end of a job's allotted time."""
 
 
-def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch, caplog):
-    """para_adaptive ended after pass 1 (as by a time limit) and started again continues
-    from its checkpoint: the table and arrays are those of the job run through (errors,
-    η, DOFs to round-off), the continued pass is marked by `invocation`, and the
-    checkpoint goes once the outputs are written; the log gives the size of the pass to
-    come when a pass is saved and when the job continues.  A checkpoint of other
-    settings is not continued."""
-    para_adaptive = script("para_adaptive")
+def _ends_after_pass(steps, n):
+    """fracfem.algorithm_c_steps (``steps``) ended after pass n, as by a time limit."""
+    def ended(*a, **k):
+        for rec in steps(*a, **k):
+            yield rec
+            if rec.iteration == n:
+                raise _TimeLimit
+    return ended
+
+
+def _small_algorithm_c_job(tmp_path):
+    """(mesh, U, reference file, para_adaptive.main's arguments) of a three-pass Example 4
+    (u₀ = 2) job measured against a reference of three random steps on disk_uniform(2)."""
     m = ff.disk_uniform(2)
     U = np.random.default_rng(1).standard_normal((3, m.p.shape[1]))
     ref = tmp_path / "ref.npz"
@@ -531,6 +536,18 @@ def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch, ca
                 start_level=1, c_tau=1.0, max_spacetime_dofs=10 ** 9, max_iterations=3,
                 figure_iterations=[1], output_times=[0.0, 0.4, 1.0], tol=1e-10,
                 quadrature={}, ref=str(ref), operator="dense")
+    return m, U, ref, args
+
+
+def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch, caplog):
+    """para_adaptive ended after pass 1 (as by a time limit) and started again continues
+    from its checkpoint: the table and arrays are those of the job run through (errors,
+    η, DOFs to round-off), the continued pass is marked by `invocation`, and the
+    checkpoint goes once the outputs are written; the log gives the size of the pass to
+    come when a pass is saved and when the job continues.  A checkpoint of other
+    settings is not continued."""
+    para_adaptive = script("para_adaptive")
+    m, U, ref, args = _small_algorithm_c_job(tmp_path)
 
     def outputs(d, **kw):
         d.mkdir()
@@ -541,11 +558,7 @@ def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch, ca
     whole, whole_arrays = outputs(tmp_path / "whole")
     real = ff.algorithm_c_steps
 
-    def ends_after_pass_1(*a, **k):
-        for rec in real(*a, **k):
-            yield rec
-            if rec.iteration == 1:
-                raise _TimeLimit
+    ends_after_pass_1 = _ends_after_pass(real, 1)
     ckpt = tmp_path / "cont" / "checkpoint.npz"
 
     def announced():
@@ -607,21 +620,13 @@ def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeyp
     checkpoint, is not used, and the job's own stays.  A reference is identified by its
     arrays: the same arrays written again are the same run."""
     para_adaptive = script("para_adaptive")
-    m = ff.disk_uniform(2)
-    U = np.random.default_rng(1).standard_normal((3, m.p.shape[1]))
-    ref = tmp_path / "ref.npz"
-    np.savez(ref, p=m.p, t=m.t, times=np.array([0.0, 0.5, 1.0]), U=U, s=0.5)
+    m, U, ref, args = _small_algorithm_c_job(tmp_path)
     again = tmp_path / "ref-again.npz"
     np.savez_compressed(again, s=0.5, U=U, times=np.array([0.0, 0.5, 1.0]), t=m.t, p=m.p)
     assert para_adaptive.run_digest(again) == para_adaptive.run_digest(ref)
     np.savez(tmp_path / "ref-other.npz", p=m.p, t=m.t, times=np.array([0.0, 0.5, 1.0]),
              U=U + 1e-15, s=0.5)
     assert para_adaptive.run_digest(tmp_path / "ref-other.npz") != para_adaptive.run_digest(ref)
-    args = dict(problem="ex4-u2", example="ex4",
-                data={"s": 0.5, "u0": 2.0, "height": 1.0, "slope": 4.0}, T=1.0, theta=0.5,
-                start_level=1, c_tau=1.0, max_spacetime_dofs=10 ** 9, max_iterations=3,
-                figure_iterations=[1], output_times=[0.0, 0.4, 1.0], tol=1e-10,
-                quadrature={}, ref=str(ref), operator="dense")
 
     def outputs(d, **kw):
         d.mkdir()
@@ -632,12 +637,7 @@ def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeyp
     real = ff.algorithm_c_steps
 
     def ends_after_pass(n):
-        def steps(*a, **k):
-            for rec in real(*a, **k):
-                yield rec
-                if rec.iteration == n:
-                    raise _TimeLimit
-        return steps
+        return _ends_after_pass(real, n)
 
     # an earlier allocation: passes 0 and 1, kept after each
     first = tmp_path / "alloc1" / "checkpoint.npz"

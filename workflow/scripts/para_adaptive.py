@@ -82,6 +82,13 @@ def key_differences(made, key) -> list:
     return sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
 
 
+def _stamp(path):
+    """(key, next pass, rows) a checkpoint was saved with, without reading its meshes."""
+    with np.load(path, allow_pickle=False) as d:
+        return (str(d["checkpoint_key"]), int(d["checkpoint_iteration"]),
+                json.loads(str(d["checkpoint_rows"])))
+
+
 def why_not(path, key, max_spacetime_dofs, max_iterations):
     """(next pass, None) of a checkpoint this run can continue, else (-1, why not): none,
     made with other settings (named), or holding a pass at which this run would have
@@ -89,9 +96,7 @@ def why_not(path, key, max_spacetime_dofs, max_iterations):
     path = Path(path)
     if not path.exists():
         return -1, "no such file"
-    with np.load(path, allow_pickle=False) as d:
-        made, first = str(d["checkpoint_key"]), int(d["checkpoint_iteration"])
-        rows = json.loads(str(d["checkpoint_rows"]))
+    made, first, rows = _stamp(path)
     if made != key:
         return -1, f"made with other settings (differing in {key_differences(made, key)})"
     if first >= max_iterations or max(r["spacetime_dofs"] for r in rows) >= max_spacetime_dofs:
@@ -126,11 +131,7 @@ def load_checkpoint(path, key, max_spacetime_dofs, max_iterations):
 
 def next_pass(path) -> int:
     """The pass a checkpoint continues with (-1: no such file)."""
-    path = Path(path)
-    if not path.exists():
-        return -1
-    with np.load(path, allow_pickle=False) as d:
-        return int(d["checkpoint_iteration"])
+    return _stamp(path)[1] if Path(path).exists() else -1
 
 
 def seed_checkpoint(checkpoint, committed, key, max_spacetime_dofs, max_iterations):
@@ -161,16 +162,13 @@ def keep_checkpoint(checkpoint, copy, force=False):
     existing copy that is further on, or was made with other settings, is replaced only
     with ``force`` (else ValueError)."""
     if Path(copy).exists() and not force:
-        with np.load(copy, allow_pickle=False) as d:
-            made = str(d["checkpoint_key"])
-        with np.load(checkpoint, allow_pickle=False) as d:
-            key = str(d["checkpoint_key"])
+        (made, kept, _), (key, ours, _) = _stamp(copy), _stamp(checkpoint)
         if made != key:
             raise ValueError(f"{copy} was made with other settings than {checkpoint} "
                              f"(differing in {key_differences(made, key)}): --force replaces it")
-        if next_pass(copy) > next_pass(checkpoint):
-            raise ValueError(f"{copy} continues with pass {next_pass(copy)}, {checkpoint} "
-                             f"with pass {next_pass(checkpoint)}: --force replaces it")
+        if kept > ours:
+            raise ValueError(f"{copy} continues with pass {kept}, {checkpoint} "
+                             f"with pass {ours}: --force replaces it")
     slabs, arrays = ff.load_slabs(checkpoint)
     Path(copy).parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(copy, suffix=".npz") as tmp:
