@@ -251,6 +251,26 @@ def test_rate_table_reads_another_tiers_elliptic_table_until_its_full_one_exists
     assert "para_" not in text and "rule rates_elliptic" in text
 
 
+def test_kept_error_tables_replace_the_runs_they_were_made_from(tmp_path):
+    """parabolic.kept_errors: Figure 15 reads Example 5's kept error table where it exists,
+    and then runs none of Example 5's jobs; without it the table is computed; keeping one
+    without that folder is refused, naming the key."""
+    kept = tmp_path / "kept"
+    cfg = tmp_path / "s.yaml"
+    cfg.write_text(f"parabolic:\n  kept_errors: {kept}\n")
+    args = ("--configfile", str(cfg), "--config", f"results_dir={tmp_path}/r",
+            f"output_root={tmp_path}/o", "--", f"{tmp_path}/o/fig15-ex5-error.png")
+    counts = job_counts(dry_run(*args)[1])
+    assert counts["para_errors"] == 1 and counts["para_adaptive"] == 1
+    kept.mkdir()
+    (kept / "ex5-errors.csv").write_text("example\n")
+    _, text = dry_run(*args)
+    assert job_counts(text) == {"fig_para_error": 1} and f"{kept}/ex5-errors.csv" in text
+    code, text = dry_run("--config", f"results_dir={tmp_path}/r", "--",
+                         f"{tmp_path}/r/para/ex5/errors-kept.txt", ok=False)
+    assert code != 0 and "parabolic.kept_errors=None" in text
+
+
 @pytest.mark.parametrize("choice, checked", [
     ({"graded-sr": 3}, {"uniform": "L5", "graded": "h0.05", "graded-sr": "r0.2"}),
     ({"uniform": 1, "graded": 1, "graded-sr": 1},

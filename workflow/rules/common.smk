@@ -430,11 +430,32 @@ def vi_error_tables(wildcards):
     return [path(rules.vi_errors.output.csv, problem=p) for p in problems]
 
 
+def kept_para_errors(problem):
+    """The copy of a parabolic problem's error table kept in the repository
+    (parabolic.kept_errors, rule para_errors_keep); None when that is null."""
+    root = PARA.get("kept_errors")
+    return None if root is None else Path(workflow.basedir) / root / f"{problem}-errors.csv"
+
+
+def _no_kept_errors():
+    raise ValueError("config parabolic.kept_errors=None: para_errors_keep needs the folder to "
+                     "keep the error tables in (config/paper.yaml sets one)")
+
+
+def para_errors_table(problem):
+    """A parabolic problem's error table as the tables and figures read it: its kept copy
+    where parabolic.kept_errors has one (a tier whose runs take more than one allocation
+    assembles them from there), else para_errors's output (computed when missing)."""
+    kept = kept_para_errors(problem)
+    if kept is not None and kept.exists():
+        return str(kept)
+    return path(rules.para_errors.output.csv, problem=problem)
+
+
 def para_error_tables(wildcards):
     """The error tables shown in Figure 13 (Example 4) or 15 (Example 5)."""
     example = "ex4" if wildcards.num == "13" else "ex5"
-    return [path(rules.para_errors.output.csv, problem=p) for p in PARA_PROBLEMS
-            if p.split("-")[0] == example]
+    return [para_errors_table(p) for p in PARA_PROBLEMS if p.split("-")[0] == example]
 
 
 wildcard_constraints:

@@ -349,7 +349,7 @@ rule fig12:
 
 rule parabolic_summary:
     input:
-        csv=expand(rules.para_errors.output.csv, problem=PARA_PROBLEMS),
+        csv=[para_errors_table(p) for p in PARA_PROBLEMS],
         larger=larger_committed("error"),
         larger_runs=larger_committed("runs"),
     output:
@@ -540,6 +540,29 @@ rule para_errors_commit:
         f"{RES}/logs/para/{{problem}}_errors_commit.log",
     benchmark:
         f"{RES}/benchmarks/para/{{problem}}_errors_commit.tsv"
+    conda:
+        ENV
+    script:
+        "../scripts/para_errors_copy.py"
+
+
+# `snakemake --cores 2 results-paper/para/<problem>/errors-kept.txt --configfile
+# config/paper.yaml`: keep a problem's error table in the repository (parabolic.kept_errors;
+# written as a param, not an output: a fresh clone reads the copy as it is), so that the
+# figures and tables of a tier whose problems take an allocation each are made from them
+rule para_errors_keep:
+    input:
+        csv=rules.para_errors.output.csv,
+    output:
+        note=f"{RES}/para/{{problem}}/errors-kept.txt",
+    wildcard_constraints:
+        problem="|".join(PARA_PROBLEMS),
+    params:
+        committed=lambda w: str(kept_para_errors(w.problem) or _no_kept_errors()),
+    log:
+        f"{RES}/logs/para/{{problem}}_errors_keep.log",
+    benchmark:
+        f"{RES}/benchmarks/para/{{problem}}_errors_keep.tsv"
     conda:
         ENV
     script:

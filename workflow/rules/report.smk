@@ -5,7 +5,7 @@ rule rates:
     input:
         ex1=rules.ex1_table.output.table,
         vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
-        para=expand(rules.para_errors.output.csv, problem=PARA_PROBLEMS),
+        para=[para_errors_table(p) for p in PARA_PROBLEMS],
         tiers=lambda w: list(other_tiers().values()),
     output:
         csv=report(

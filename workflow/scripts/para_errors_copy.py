@@ -1,7 +1,8 @@
-"""Commit a parabolic problem's error table (para_errors) beside its reference's committed
-copy (rule para_errors_commit): with config/ex4-paper-reference.yaml, the errors of the
+"""Commit a parabolic problem's error table (para_errors): beside its reference's committed
+copy (rule para_errors_commit; with config/ex4-paper-reference.yaml, the errors of the
 default tier's runs against the paper-scale tier's references, which the default tier's
-parabolic-runs.md compares with its own."""
+parabolic-runs.md compares with its own), or as the kept copy that a tier's figures and
+tables read instead of computing it (rule para_errors_keep, parabolic.kept_errors)."""
 import shutil
 from pathlib import Path
 
@@ -15,6 +16,7 @@ def main(csv, committed, note, log=None):
     """Copy ``csv`` to ``committed``; note: what was copied where."""
     if log is not None:
         log_to(log)
+    Path(committed).parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(committed) as tmp:
         shutil.copyfile(csv, tmp)
     logger.info("%s -> %s", csv, committed)
