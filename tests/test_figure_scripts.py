@@ -612,6 +612,24 @@ def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch, ca
     assert [c for c in ints if cont[c].dtype.kind != "i"] == []
 
 
+def test_checkpoint_of_other_coarser_runs_says_why_they_can_differ(tmp_path):
+    """A checkpoint whose family's coarser runs differ (compared bit for bit) is not
+    continued, and the reason names the usual cause, another thread count or processor;
+    another setting gets no such remark."""
+    para_adaptive = script("para_adaptive")
+    key = para_adaptive.checkpoint_key(theta=0.5, coarser=["a", "b"])
+    path = tmp_path / "c.npz"
+    np.savez(path, checkpoint_key=np.array(key), checkpoint_iteration=np.array(2),
+             checkpoint_rows=np.array('[{"spacetime_dofs": 10}]'))
+    assert para_adaptive.why_not(path, key, 100, 5) == (2, None)
+    _, why = para_adaptive.why_not(path, para_adaptive.checkpoint_key(
+        theta=0.5, coarser=["a", "c"]), 100, 5)
+    assert "['coarser']" in why and "another number of threads" in why
+    _, why = para_adaptive.why_not(path, para_adaptive.checkpoint_key(
+        theta=0.6, coarser=["a", "b"]), 100, 5)
+    assert "['theta']" in why and "threads" not in why
+
+
 def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeypatch):
     """A checkpoint kept in the repository (keep_checkpoint: deflated, same slabs and
     records; an earlier one does not replace it) is where a job without one of its own

@@ -98,7 +98,11 @@ def why_not(path, key, max_spacetime_dofs, max_iterations):
         return -1, "no such file"
     made, first, rows = _stamp(path)
     if made != key:
-        return -1, f"made with other settings (differing in {key_differences(made, key)})"
+        differ = key_differences(made, key)
+        hint = ("; the family's coarser runs are compared bit for bit, and runs computed "
+                "with another number of threads (job_threads, or fewer --cores) or on "
+                "another processor round differently" if "coarser" in differ else "")
+        return -1, f"made with other settings (differing in {differ}){hint}"
     if first >= max_iterations or max(r["spacetime_dofs"] for r in rows) >= max_spacetime_dofs:
         return -1, (f"goes beyond max_iterations={max_iterations} or "
                     f"max_spacetime_dofs={max_spacetime_dofs}")
