@@ -252,20 +252,35 @@ def test_rate_table_reads_another_tiers_elliptic_table_until_its_full_one_exists
 
 
 def test_kept_error_tables_replace_the_runs_they_were_made_from(tmp_path):
-    """parabolic.kept_errors: Figure 15 reads Example 5's kept error table where it exists,
-    and then runs none of Example 5's jobs; without it the table is computed; keeping one
-    without that folder is refused, naming the key."""
+    """parabolic.kept_errors: Figure 15 of the paper-scale tier reads Example 5's kept error
+    table (the committed one) where it exists and was made with this configuration, and
+    then runs none of Example 5's jobs; without it, or with other Algorithm C settings or
+    other series runs, the table is computed; keeping one without that folder is refused,
+    naming the key."""
+    import pandas as pd
+    committed = ROOT / "workflow" / "data" / "tables" / "paper-scale" / "ex5-errors.csv"
     kept = tmp_path / "kept"
     cfg = tmp_path / "s.yaml"
-    cfg.write_text(f"parabolic:\n  kept_errors: {kept}\n")
-    args = ("--configfile", str(cfg), "--config", f"results_dir={tmp_path}/r",
-            f"output_root={tmp_path}/o", "--", f"{tmp_path}/o/fig15-ex5-error.png")
-    counts = job_counts(dry_run(*args)[1])
+
+    def jobs(theta=None):
+        cfg.write_text(f"parabolic:\n  kept_errors: {kept}\n"
+                       + (f"  adaptive:\n    theta: {theta}\n" if theta else ""))
+        _, text = dry_run("--configfile", "config/paper.yaml", str(cfg), "--config",
+                          f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o", "--",
+                          f"{tmp_path}/o/fig15-ex5-error.png")
+        return job_counts(text), text
+    counts, _ = jobs()
     assert counts["para_errors"] == 1 and counts["para_adaptive"] == 1
     kept.mkdir()
-    (kept / "ex5-errors.csv").write_text("example\n")
-    _, text = dry_run(*args)
-    assert job_counts(text) == {"fig_para_error": 1} and f"{kept}/ex5-errors.csv" in text
+    shutil.copyfile(committed, kept / "ex5-errors.csv")
+    counts, text = jobs()
+    assert counts == {"fig_para_error": 1} and f"{kept}/ex5-errors.csv" in text
+    counts, text = jobs(theta=0.6)
+    assert counts["para_errors"] == 1 and "Algorithm C theta" in text
+    d = pd.read_csv(committed)
+    d[d.tag != "L5"].to_csv(kept / "ex5-errors.csv", index=False)
+    counts, text = jobs()
+    assert counts["para_errors"] == 1 and "series runs" in text
     code, text = dry_run("--config", f"results_dir={tmp_path}/r", "--",
                          f"{tmp_path}/r/para/ex5/errors-kept.txt", ok=False)
     assert code != 0 and "parabolic.kept_errors=None" in text

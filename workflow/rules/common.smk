@@ -442,13 +442,55 @@ def _no_kept_errors():
                      "keep the error tables in (config/paper.yaml sets one)")
 
 
+def kept_errors_differ(table, problem):
+    """How a kept error table of ``problem`` differs from what this configuration would
+    compute (an empty list: it is this configuration's): its Algorithm C rows' settings,
+    its series' data and settings, and which series runs it holds."""
+    import pandas as pd
+    from fracfem import QuadratureOptions
+    from fracfem_workflow.runs import mismatched_parameters, parameter_columns
+    try:
+        d = pd.read_csv(table)
+        adaptive, runs = d[d.family == "adaptive"], d[d.family != "adaptive"]
+        quad = QuadratureOptions(**PARA_QUADRATURE)
+        A = PARA["adaptive"]
+        expected = parameter_columns(quadrature=quad, T=PARA["T"], theta=A["theta"],
+                                     marking="maximum", c_tau=A["c_tau"],
+                                     start_level=A["start_level"], solver="pdas",
+                                     tol=SOLVER["tol"], operator=A["operator"])
+        w = type("W", (), {"problem": problem})
+        differ = [] if len(adaptive) else ["no Algorithm C rows"]
+        differ += [f"Algorithm C {k}"
+                   for k in mismatched_parameters(adaptive.iloc[0].to_dict(), expected)
+                   ] if len(adaptive) else []
+        series_expected = parameter_columns(quadrature=quad, grading=GRADING, T=PARA["T"],
+                                            solver="pdas", tol=SOLVER["tol"],
+                                            data=para_data(w))
+        for row in runs.to_dict("records"):
+            differ += [f"{row['family']} {row['tag']} {k}"
+                       for k in mismatched_parameters(row, series_expected)]
+        have = sorted(zip(runs.family, runs.tag))
+        if have != sorted(series(PARA)):
+            differ.append(f"series runs {have}")
+    except (OSError, ValueError, KeyError, IndexError) as err:
+        differ = [f"unreadable ({err})"]
+    return differ
+
+
 def para_errors_table(problem):
     """A parabolic problem's error table as the tables and figures read it: its kept copy
-    where parabolic.kept_errors has one (a tier whose runs take more than one allocation
-    assembles them from there), else para_errors's output (computed when missing)."""
+    where parabolic.kept_errors has one made with this configuration's settings
+    (kept_errors_differ; a tier whose runs take more than one allocation assembles them
+    from there), else para_errors's output (computed when missing)."""
     kept = kept_para_errors(problem)
-    if kept is not None and kept.exists():
+    if kept is None or not kept.exists():
+        return path(rules.para_errors.output.csv, problem=problem)
+    differ = kept_errors_differ(kept, problem)
+    if not differ:
         return str(kept)
+    logger.warning(f"{kept} differs from this configuration in {', '.join(differ[:5])}"
+                   f"{' …' if len(differ) > 5 else ''}: the errors of {problem} are "
+                   "computed (rule para_errors)")
     return path(rules.para_errors.output.csv, problem=problem)
 
 
