@@ -253,18 +253,19 @@ def test_rate_table_reads_another_tiers_elliptic_table_until_its_full_one_exists
 
 def test_kept_error_tables_replace_the_runs_they_were_made_from(tmp_path):
     """parabolic.kept_errors: Figure 15 of the paper-scale tier reads Example 5's kept error
-    table (the committed one) where it exists and was made with this configuration, and
-    then runs none of Example 5's jobs; without it, or with other Algorithm C settings or
-    other series runs, the table is computed; keeping one without that folder is refused,
-    naming the key."""
+    table (the committed one, with the settings it was made with beside it) where it exists
+    and this configuration would make the same, and then runs none of Example 5's jobs.
+    Without it, with any setting that decides its rows changed (Algorithm C's, its limits,
+    the series' time steps, the reference's family), without its settings record, with
+    other series runs, or damaged, the table is computed and the log says why; keeping one
+    without that folder is refused, naming the key."""
     import pandas as pd
     committed = ROOT / "workflow" / "data" / "tables" / "paper-scale" / "ex5-errors.csv"
     kept = tmp_path / "kept"
     cfg = tmp_path / "s.yaml"
 
-    def jobs(theta=None):
-        cfg.write_text(f"parabolic:\n  kept_errors: {kept}\n"
-                       + (f"  adaptive:\n    theta: {theta}\n" if theta else ""))
+    def jobs(extra=""):
+        cfg.write_text(f"parabolic:\n  kept_errors: {kept}\n" + extra)
         _, text = dry_run("--configfile", "config/paper.yaml", str(cfg), "--config",
                           f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o", "--",
                           f"{tmp_path}/o/fig15-ex5-error.png")
@@ -272,15 +273,29 @@ def test_kept_error_tables_replace_the_runs_they_were_made_from(tmp_path):
     counts, _ = jobs()
     assert counts["para_errors"] == 1 and counts["para_adaptive"] == 1
     kept.mkdir()
-    shutil.copyfile(committed, kept / "ex5-errors.csv")
+    for suffix in (".csv", ".json"):
+        shutil.copyfile(committed.with_suffix(suffix), kept / f"ex5-errors{suffix}")
     counts, text = jobs()
     assert counts == {"fig_para_error": 1} and f"{kept}/ex5-errors.csv" in text
-    counts, text = jobs(theta=0.6)
-    assert counts["para_errors"] == 1 and "Algorithm C theta" in text
+    for extra, named in [("  adaptive:\n    theta: 0.6\n", "adaptive"),
+                         ("  adaptive:\n    max_iterations: 5\n", "adaptive"),
+                         ("  tau_factor: {uniform: 2.0, graded: 0.5, graded-sr: 0.5}\n",
+                          "tau_factor"),
+                         ("  reference:\n    tau_factor: 0.1\n", "reference")]:
+        counts, text = jobs(extra)
+        assert counts["para_errors"] == 1, extra
+        assert f"differs from this configuration in {named}" in text, extra
     d = pd.read_csv(committed)
     d[d.tag != "L5"].to_csv(kept / "ex5-errors.csv", index=False)
     counts, text = jobs()
     assert counts["para_errors"] == 1 and "series runs" in text
+    (kept / "ex5-errors.csv").write_text("example\n1\n")           # no family column
+    counts, text = jobs()
+    assert counts["para_errors"] == 1 and "unreadable" in text
+    shutil.copyfile(committed, kept / "ex5-errors.csv")
+    (kept / "ex5-errors.json").unlink()
+    counts, text = jobs()
+    assert counts["para_errors"] == 1 and "unreadable" in text
     code, text = dry_run("--config", f"results_dir={tmp_path}/r", "--",
                          f"{tmp_path}/r/para/ex5/errors-kept.txt", ok=False)
     assert code != 0 and "parabolic.kept_errors=None" in text

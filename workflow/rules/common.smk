@@ -442,39 +442,46 @@ def _no_kept_errors():
                      "keep the error tables in (config/paper.yaml sets one)")
 
 
+def kept_errors_settings(problem):
+    """What a kept error table of ``problem`` must have been made with (JSON; written
+    beside it by para_errors_keep): everything that decides its rows and their errors,
+    the problem's data, the series and their time steps, Algorithm C's settings and
+    limits, the reference's family, the quadrature and the solver tolerance."""
+    w = Namespace(problem=problem)
+    graded_h, coarser_h = para_reference_h(problem)
+    A, R = PARA["adaptive"], PARA["reference"]
+    return json.dumps({
+        "data": para_data(w), "T": PARA["T"], "tau_factor": PARA["tau_factor"],
+        "series": series(PARA), "grading": GRADING, "quadrature": PARA_QUADRATURE,
+        "tol": SOLVER["tol"],
+        "adaptive": {k: A[k] for k in ("theta", "start_level", "c_tau", "max_spacetime_dofs",
+                                       "max_iterations", "operator")},
+        "reference": {"graded_h": graded_h, "coarser_h": coarser_h,
+                      "tau_factor": R["tau_factor"], "operator": R["operator"]}},
+        sort_keys=True, default=str)
+
+
 def kept_errors_differ(table, problem):
     """How a kept error table of ``problem`` differs from what this configuration would
-    compute (an empty list: it is this configuration's): its Algorithm C rows' settings,
-    its series' data and settings, and which series runs it holds."""
-    import pandas as pd
-    from fracfem import QuadratureOptions
-    from fracfem_workflow.runs import mismatched_parameters, parameter_columns
+    compute (an empty list: it is this configuration's): the settings recorded beside it
+    (kept_errors_settings), and a readable table holding this configuration's series."""
     try:
+        made = json.loads(Path(table).with_suffix(".json").read_text())
+        now = json.loads(kept_errors_settings(problem))
+        differ = sorted(k for k in set(made) | set(now) if made.get(k) != now.get(k))
+        import pandas as pd
         d = pd.read_csv(table)
-        adaptive, runs = d[d.family == "adaptive"], d[d.family != "adaptive"]
-        quad = QuadratureOptions(**PARA_QUADRATURE)
-        A = PARA["adaptive"]
-        expected = parameter_columns(quadrature=quad, T=PARA["T"], theta=A["theta"],
-                                     marking="maximum", c_tau=A["c_tau"],
-                                     start_level=A["start_level"], solver="pdas",
-                                     tol=SOLVER["tol"], operator=A["operator"])
-        w = type("W", (), {"problem": problem})
-        differ = [] if len(adaptive) else ["no Algorithm C rows"]
-        differ += [f"Algorithm C {k}"
-                   for k in mismatched_parameters(adaptive.iloc[0].to_dict(), expected)
-                   ] if len(adaptive) else []
-        series_expected = parameter_columns(quadrature=quad, grading=GRADING, T=PARA["T"],
-                                            solver="pdas", tol=SOLVER["tol"],
-                                            data=para_data(w))
-        for row in runs.to_dict("records"):
-            differ += [f"{row['family']} {row['tag']} {k}"
-                       for k in mismatched_parameters(row, series_expected)]
-        have = sorted(zip(runs.family, runs.tag))
-        if have != sorted(series(PARA)):
-            differ.append(f"series runs {have}")
-    except (OSError, ValueError, KeyError, IndexError) as err:
-        differ = [f"unreadable ({err})"]
+        runs = d[d.family != "adaptive"]
+        if not (d.family == "adaptive").any():
+            differ.append("no Algorithm C rows")
+        if sorted(zip(runs.family, runs.tag)) != sorted(series(PARA)):
+            differ.append("series runs")
+    except Exception as err:      # a missing record or a damaged table: computed instead
+        differ = [f"unreadable ({type(err).__name__}: {err})"]
     return differ
+
+
+_KEPT_CHOICE = {}
 
 
 def para_errors_table(problem):
@@ -482,16 +489,19 @@ def para_errors_table(problem):
     where parabolic.kept_errors has one made with this configuration's settings
     (kept_errors_differ; a tier whose runs take more than one allocation assembles them
     from there), else para_errors's output (computed when missing)."""
+    if problem in _KEPT_CHOICE:
+        return _KEPT_CHOICE[problem]
     kept = kept_para_errors(problem)
-    if kept is None or not kept.exists():
-        return path(rules.para_errors.output.csv, problem=problem)
-    differ = kept_errors_differ(kept, problem)
-    if not differ:
-        return str(kept)
-    logger.warning(f"{kept} differs from this configuration in {', '.join(differ[:5])}"
-                   f"{' …' if len(differ) > 5 else ''}: the errors of {problem} are "
-                   "computed (rule para_errors)")
-    return path(rules.para_errors.output.csv, problem=problem)
+    choice = path(rules.para_errors.output.csv, problem=problem)
+    if kept is not None and kept.exists():
+        differ = kept_errors_differ(kept, problem)
+        if not differ:
+            choice = str(kept)
+        else:
+            logger.warning(f"{kept} differs from this configuration in {', '.join(differ)}: "
+                           f"the errors of {problem} are computed (rule para_errors)")
+    _KEPT_CHOICE[problem] = choice
+    return choice
 
 
 def para_error_tables(wildcards):

@@ -559,6 +559,7 @@ rule para_errors_keep:
         problem="|".join(PARA_PROBLEMS),
     params:
         committed=lambda w: str(kept_para_errors(w.problem) or _no_kept_errors()),
+        settings=lambda w: kept_errors_settings(w.problem),   # written beside it (.json)
     log:
         f"{RES}/logs/para/{{problem}}_errors_keep.log",
     benchmark:

@@ -12,11 +12,16 @@ from fracfem_workflow.logs import log_to, script_logger
 logger = script_logger("para_errors_copy")
 
 
-def main(csv, committed, note, log=None):
-    """Copy ``csv`` to ``committed``; note: what was copied where."""
+def main(csv, committed, note, log=None, settings=None):
+    """Copy ``csv`` to ``committed``; settings: the JSON of what it was made with, written
+    beside it as ``.json`` (para_errors_keep; none for para_errors_commit); note: what was
+    copied where."""
     if log is not None:
         log_to(log)
     Path(committed).parent.mkdir(parents=True, exist_ok=True)
+    if settings is not None:
+        with atomic_path(Path(committed).with_suffix(".json")) as tmp:
+            Path(tmp).write_text(settings + "\n")
     with atomic_path(committed) as tmp:
         shutil.copyfile(csv, tmp)
     logger.info("%s -> %s", csv, committed)
@@ -26,4 +31,5 @@ def main(csv, committed, note, log=None):
 
 if __name__ == "__main__":
     main(snakemake.input.csv, snakemake.params.committed,  # noqa: F821
-         snakemake.output.note, snakemake.log[0])  # noqa: F821
+         snakemake.output.note, snakemake.log[0],  # noqa: F821
+         snakemake.params.get("settings"))  # noqa: F821
