@@ -466,10 +466,10 @@ def kept_errors_differ(table, problem):
     compute (an empty list: it is this configuration's): the settings recorded beside it
     (kept_errors_settings), and a readable table holding this configuration's series."""
     try:
-        made = json.loads(Path(table).with_suffix(".json").read_text())
-        now = json.loads(kept_errors_settings(problem))
-        differ = sorted(k for k in set(made) | set(now) if made.get(k) != now.get(k))
         import pandas as pd
+        from fracfem_workflow.runs import key_differences
+        differ = key_differences(Path(table).with_suffix(".json").read_text(),
+                                 kept_errors_settings(problem))
         d = pd.read_csv(table)
         runs = d[d.family != "adaptive"]
         if not (d.family == "adaptive").any():

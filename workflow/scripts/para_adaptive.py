@@ -26,7 +26,8 @@ import fracfem as ff
 from fracfem_workflow.io import (atomic_path, peak_memory_mb, provenance, save_arrays,
                                  with_provenance, write_table)
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.runs import family_error, parameter_columns, start, stored_family
+from fracfem_workflow.runs import (family_error, key_differences, parameter_columns, start,
+                                   stored_family)
 
 logger = script_logger("para_adaptive")
 
@@ -74,12 +75,6 @@ def log_next_pass(iteration, slabs, s, c_tau):
     logger.info("pass %d will have %d space-time DOFs: %d slabs, %d time steps, at most "
                 "%d DOFs per step", iteration, size["spacetime_dofs"], size["slabs"],
                 size["steps"], size["max_dofs_per_step"])
-
-
-def key_differences(made, key) -> list:
-    """The settings in which a checkpoint's key ``made`` differs from ``key`` (JSON)."""
-    a, b = json.loads(made), json.loads(key)
-    return sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
 
 
 def _stamp(path):

@@ -80,6 +80,13 @@ def _same(recorded, expected) -> bool:
         return str(recorded) == str(expected)
 
 
+def key_differences(made: str, key: str) -> list[str]:
+    """The top-level settings in which the JSON record ``made`` (a checkpoint's key, a kept
+    table's settings) differs from ``key``, sorted."""
+    a, b = json.loads(made), json.loads(key)
+    return sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+
+
 def mismatched_parameters(recorded: dict, expected: dict) -> list[str]:
     """The keys of ``expected`` (parameters a run would record, e.g. by
     :func:`parameter_columns`) whose value differs from, or is missing in, ``recorded``
