@@ -48,6 +48,7 @@ localrules:
     parabolic_summary,
     rates,
     rates_elliptic,
+    rates_parabolic,
     results_page,
 
 

@@ -761,3 +761,38 @@ def test_pipeline_cost_states_the_machine_speed_of_the_day(tmp_path):
                   "assembly_s": [1.0]}).to_csv(day, index=False)
     with pytest.raises(SystemExit, match="level 7"):
         cost.speed_note(day, committed)
+
+
+def test_rate_table_shows_a_tier_from_its_partial_tables(tmp_path):
+    """A tier whose parabolic series are unfinished is read from its partial tables
+    (rates-elliptic.csv, rates-parabolic.csv): each row's rate comes from the one that
+    holds it, and the note names both."""
+    rates = script("rates")
+    ours = tmp_path / "ex1.csv"
+    pd.DataFrame({"example": 1, "family": "uniform", "s": 0.5, "dofs": [100, 400, 1600],
+                  "error": [0.4, 0.2, 0.1]}).to_csv(ours, index=False)
+
+    def fitted(example, variant, rate):
+        return {"example": example, "variant": variant, "family": "uniform", "s": 0.5,
+                "rate": rate, "n_points": 3, "dof_max": 10**6, "smallest_error": 0.01}
+    other = tmp_path / "big"
+    other.mkdir()
+    pd.DataFrame([fitted(1, "", -0.51)]).to_csv(other / "rates-elliptic.csv", index=False)
+    pd.DataFrame([fitted(5, "", -0.2)]).to_csv(other / "rates-parabolic.csv", index=False)
+    parts = [other / "rates-elliptic.csv", other / "rates-parabolic.csv"]
+    md = tmp_path / "rates.md"
+    rates.main([ours], tmp_path / "rates.csv", md, tmp_path / "rates.tex",
+               tiers={"big": parts})
+    out = pd.read_csv(tmp_path / "rates.csv")
+    assert out["rate_big"].tolist() == [-0.51] and out["rate"].tolist() == [-0.5]
+    note = md.read_text()
+    assert f"from `{parts[0]}` and `{parts[1]}` (Examples 1–3; its parabolic problems" in note
+    # one path, as before: no partial-table note
+    rates.main([ours], tmp_path / "rates.csv", md, tmp_path / "rates.tex",
+               tiers={"big": str(parts[0])})
+    assert "Examples 1–3" in md.read_text() and "parabolic problems whose" not in md.read_text()
+    # the same row in both partial tables is refused (join_tiers: repeats a row)
+    pd.DataFrame([fitted(1, "", -0.4)]).to_csv(parts[1], index=False)
+    with pytest.raises(ValueError, match="repeats a row"):
+        rates.main([ours], tmp_path / "rates.csv", md, tmp_path / "rates.tex",
+                   tiers={"big": parts})

@@ -244,11 +244,30 @@ def test_rate_table_reads_another_tiers_elliptic_table_until_its_full_one_exists
         _, text = dry_run(*args)
         return text.split("rule rates:")[1].split("output:")[0]
     assert f"{other}/rates-elliptic.csv" in read()
+    # with its finished parabolic problems' table (rule rates_parabolic) beside it: both
+    (other / "rates-parabolic.csv").write_text("example\n")
+    assert f"{other}/rates-elliptic.csv" in read() and f"{other}/rates-parabolic.csv" in read()
     (other / "rates.csv").write_text("example\n")
-    assert f"{other}/rates.csv" in read() and f"{other}/rates-elliptic.csv" not in read()
+    assert f"{other}/rates.csv" in read() and f"{other}/rates-elliptic" not in read()
+    assert f"{other}/rates-parabolic" not in read()
     # the elliptic table of this tier alone needs no parabolic run
     _, text = dry_run(*args[:-1], f"{tmp_path}/o/rates-elliptic.csv")
     assert "para_" not in text and "rule rates_elliptic" in text
+
+
+def test_rate_table_of_the_kept_parabolic_problems_runs_nothing_else(tmp_path):
+    """rates_parabolic fits the kept error tables this configuration reads (the paper-scale
+    tier: the committed Example 5 table) and schedules no run; a tier without kept tables
+    (the default's parabolic.kept_errors is null) is told so before anything runs."""
+    target = "paper-figures/paper-scale/rates-parabolic.csv"
+    _, text = dry_run("--configfile", "config/paper.yaml", "--forceall", "--", target)
+    assert job_counts(text) == {"rates_parabolic": 1}
+    inputs = text.split("rule rates_parabolic:")[1].split("output:")[0]
+    assert "workflow/data/tables/paper-scale/ex5-errors.csv" in inputs
+    assert "paper-figures/rates.csv" in inputs        # the default tier's rates beside them
+    code, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
+                         "--", f"{tmp_path}/o/rates-parabolic.csv", ok=False)
+    assert code != 0 and "parabolic.kept_errors=None" in text
 
 
 def test_kept_error_tables_replace_the_runs_they_were_made_from(tmp_path):

@@ -125,21 +125,29 @@ TIER = config.get("tier", "default")
 JOB_THREADS = config.get("job_threads", 2)
 
 
+PARTIAL_RATE_TABLES = ("rates-elliptic.csv", "rates-parabolic.csv")
+
+
 def tier_table(p):
-    """A tier's rate table: its rates.csv, or while that tier's parabolic series are
-    unfinished, the rates-elliptic.csv beside it (rule rates_elliptic); None if neither."""
-    for candidate in (Path(p), Path(p).with_name("rates-elliptic.csv")):
-        if candidate.exists():
-            return str(candidate)
-    return None
+    """A tier's rate tables: [its rates.csv], or while that tier's parabolic series are
+    unfinished, those of the partial tables beside it that exist (rules rates_elliptic,
+    rates_parabolic: Examples 1-3, its finished parabolic problems); [] if none."""
+    if Path(p).exists():
+        return [str(p)]
+    return [str(q) for q in (Path(p).with_name(n) for n in PARTIAL_RATE_TABLES) if q.exists()]
 
 
 def other_tiers(wildcards=None):
-    """{name: rate table} of the other tiers whose rate table exists (not this run's own)."""
+    """{name: [rate tables]} of the other tiers with a rate table (not this run's own)."""
     own = Path(OUT).resolve()
     found = {name: tier_table(p) for name, p in config.get("tiers", {}).items()
              if name != TIER and Path(p).resolve().parent != own}
-    return {name: p for name, p in found.items() if p is not None}
+    return {name: ps for name, ps in found.items() if ps}
+
+
+def other_tier_tables(wildcards=None):
+    """Every rate table of other_tiers, the inputs of the rate tables."""
+    return [p for ps in other_tiers().values() for p in ps]
 
 
 def absent_tiers():
@@ -502,6 +510,18 @@ def para_errors_table(problem):
                            f"the errors of {problem} are computed (rule para_errors)")
     _KEPT_CHOICE[problem] = choice
     return choice
+
+
+def kept_para_tables(wildcards=None):
+    """The kept error tables this configuration reads (para_errors_table), the inputs of
+    rule rates_parabolic: a tier's finished parabolic problems; raises when there is none."""
+    kept = [para_errors_table(p) for p in PARA_PROBLEMS
+            if para_errors_table(p) == str(kept_para_errors(p))]
+    if not kept:
+        raise ValueError("rates_parabolic: no parabolic problem has a kept error table made "
+                         f"with this configuration (parabolic.kept_errors="
+                         f"{PARA.get('kept_errors')!r}; the log names why one is not read)")
+    return kept
 
 
 def para_error_tables(wildcards):

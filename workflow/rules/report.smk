@@ -6,7 +6,7 @@ rule rates:
         ex1=rules.ex1_table.output.table,
         vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
         para=[para_errors_table(p) for p in PARA_PROBLEMS],
-        tiers=lambda w: list(other_tiers().values()),
+        tiers=other_tier_tables,
     output:
         csv=report(
             f"{OUT}/rates.csv",
@@ -43,7 +43,7 @@ rule rates_elliptic:
     input:
         ex1=rules.ex1_table.output.table,
         vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
-        tiers=lambda w: list(other_tiers().values()),
+        tiers=other_tier_tables,
     output:
         csv=report(
             f"{OUT}/rates-elliptic.csv",
@@ -67,6 +67,45 @@ rule rates_elliptic:
         f"{RES}/logs/rates_elliptic.log",
     benchmark:
         f"{RES}/benchmarks/tables/rates_elliptic.tsv"
+    conda:
+        ENV
+    script:
+        "../scripts/rates.py"
+
+
+rule rates_parabolic:
+    # the rate table of the parabolic problems whose error tables are kept
+    # (parabolic.kept_errors): the paper-scale tier's Algorithm C runs take more than one
+    # run of this machine each, so its finished problems' rates are shown, beside the other
+    # tiers', before the last one is done; reads the kept tables and fits them, nothing else
+    input:
+        para=kept_para_tables,
+        tiers=other_tier_tables,
+    output:
+        csv=report(
+            f"{OUT}/rates-parabolic.csv",
+            caption="../../report/captions/rates.rst",
+            category="Across examples",
+            subcategory="Rate table",
+        ),
+        md=report(
+            f"{OUT}/rates-parabolic.md",
+            caption="../../report/captions/rates.rst",
+            category="Across examples",
+            subcategory="Rate table",
+        ),
+        tex=f"{OUT}/rates-parabolic.tex",
+    params:
+        tier=TIER,
+        tiers=other_tiers(),
+        absent=absent_tiers(),
+        # the time-split pages its explanations may cite: those this tier has made
+        time_split=[p for p in PARA["time_split"]["problems"]
+                    if Path(f"{OUT}/{p}-time-split.md").exists()],
+    log:
+        f"{RES}/logs/rates_parabolic.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/rates_parabolic.tsv"
     conda:
         ENV
     script:

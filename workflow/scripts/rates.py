@@ -1,4 +1,6 @@
 """The rate table: ours next to the paper's (CSV, Markdown, LaTeX)."""
+from pathlib import Path
+
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path, write_table
@@ -115,18 +117,42 @@ def differences(rates, limit=0.05, time_split=()):
     return lines
 
 
+PARTIAL = {"rates-elliptic.csv": "Examples 1–3",
+           "rates-parabolic.csv": "its parabolic problems whose error tables are kept"}
+
+
+def tier_paths(paths):
+    """A tier's rate tables as a list (one path, or its partial tables)."""
+    return [str(paths)] if isinstance(paths, (str, Path)) else [str(p) for p in paths]
+
+
+def tier_source(paths):
+    """Where a tier's columns come from, for the note under the table."""
+    paths = tier_paths(paths)
+    parts = [Path(p).name for p in paths if Path(p).name in PARTIAL]
+    text = " and ".join(f"`{p}`" for p in paths)
+    if parts:
+        text += (" (" + "; ".join(PARTIAL[n] for n in parts)
+                 + ": its other parabolic series are not finished)")
+    return text
+
+
+def read_tier(paths) -> pd.DataFrame:
+    """A tier's rate table: its partial tables (disjoint rows) read as one."""
+    return pd.concat([pd.read_csv(p) for p in tier_paths(paths)], ignore_index=True)
+
+
 def tiers_note(tier, tiers, absent, configured):
     """What the table holds besides this tier's own rates."""
     lines = []
     if tiers:
         lines.append("Beside this tier's (" + tier + ") rates: " + "; ".join(
             f"`rate_{n}`, `n_points_{n}`, `dof_max_{n}`, `smallest_error_{n}` from "
-            f"`{p}`" + (" (Examples 1–3: its parabolic series are not finished)"
-                        if str(p).endswith("rates-elliptic.csv") else "")
-            for n, p in tiers.items()) + ", the same rows fitted by the same rule.")
+            + tier_source(p) for n, p in tiers.items()) + ", the same rows fitted by the "
+            "same rule.")
     for n in absent:
         lines.append(f"The tier {n} has not been run here (no `{configured[n]}`, nor the "
-                     "`rates-elliptic.csv` beside it).")
+                     "partial `" + "`, `".join(PARTIAL) + "` beside it).")
     return lines
 
 
@@ -151,7 +177,7 @@ def main(tables, csv, md, tex, tier="default", tiers=None, absent=(), configured
     rates["difference"] = (rates.rate - rates.paper_rate).round(3)
     diff = differences(rates, time_split=time_split)
     tiers = tiers or {}
-    rates = join_tiers(rates, {n: pd.read_csv(p) for n, p in tiers.items()})
+    rates = join_tiers(rates, {n: read_tier(p) for n, p in tiers.items()})
     write_table(rates, csv)
     notes = tiers_note(tier, tiers, absent, configured or {})
     if dropped:
@@ -181,8 +207,10 @@ def to_latex(df):
 
 if __name__ == "__main__":
     log_to(snakemake.log[0])  # noqa: F821
-    main([snakemake.input.ex1] + list(snakemake.input.vi)  # noqa: F821
-         + list(snakemake.input.get("para", [])),  # noqa: F821  (none: rates_elliptic)
+    # rates: every table; rates_elliptic: Examples 1-3; rates_parabolic: the kept ones
+    main(([snakemake.input.ex1] if "ex1" in snakemake.input.keys() else [])  # noqa: F821
+         + list(snakemake.input.get("vi", []))  # noqa: F821
+         + list(snakemake.input.get("para", [])),  # noqa: F821
          snakemake.output.csv, snakemake.output.md, snakemake.output.tex,  # noqa: F821
          tier=snakemake.params.tier, tiers=dict(snakemake.params.tiers),  # noqa: F821
          absent=list(snakemake.params.absent),  # noqa: F821

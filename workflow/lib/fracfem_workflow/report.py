@@ -148,7 +148,7 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
         df["variant"] = ""
     if "reference_error" not in df:
         df["reference_error"] = 0.0
-    df["variant"] = df["variant"].fillna("").astype(str)
+    df["variant"] = df["variant"].astype(object).fillna("").astype(str)
     rows = []
     for (ex, var, fam, s), g in df.groupby(["example", "variant", "family", "s"], sort=True):
         paper = paper_rate(ex, fam, s, var)
@@ -181,13 +181,13 @@ def join_tiers(rates: pd.DataFrame, others: dict) -> pd.DataFrame:
     matched on (example, variant, family, s), NaN where that tier has no such
     row.  A row of another tier that this table lacks is not added."""
     out = rates.copy()
-    out["variant"] = out["variant"].fillna("").astype(str)
+    out["variant"] = out["variant"].astype(object).fillna("").astype(str)
     for name, other in others.items():
         missing = [c for c in TIER_KEYS + TIER_COLUMNS if c not in other]
         if missing:
             raise ValueError(f"tier {name!r}: rate table lacks the columns {missing}")
         o = other[TIER_KEYS + TIER_COLUMNS].copy()
-        o["variant"] = o["variant"].fillna("").astype(str)
+        o["variant"] = o["variant"].astype(object).fillna("").astype(str)
         if o.duplicated(TIER_KEYS).any():
             raise ValueError(f"tier {name!r}: rate table repeats a row")
         o = o.rename(columns={c: f"{c}_{name}" for c in TIER_COLUMNS})
