@@ -768,9 +768,12 @@ def test_rate_table_shows_a_tier_from_its_partial_tables(tmp_path):
     (rates-elliptic.csv, rates-parabolic.csv): each row's rate comes from the one that
     holds it, and the note names both."""
     rates = script("rates")
-    ours = tmp_path / "ex1.csv"
+    ours, ex5 = tmp_path / "ex1.csv", tmp_path / "ex5.csv"
     pd.DataFrame({"example": 1, "family": "uniform", "s": 0.5, "dofs": [100, 400, 1600],
                   "error": [0.4, 0.2, 0.1]}).to_csv(ours, index=False)
+    pd.DataFrame({"example": 5, "family": "uniform", "s": 0.5,
+                  "spacetime_dofs": [10**3, 10**4], "error": [0.1, 0.05],
+                  "reference_error": 0.001}).to_csv(ex5, index=False)
 
     def fitted(example, variant, rate):
         return {"example": example, "variant": variant, "family": "uniform", "s": 0.5,
@@ -781,16 +784,25 @@ def test_rate_table_shows_a_tier_from_its_partial_tables(tmp_path):
     pd.DataFrame([fitted(5, "", -0.2)]).to_csv(other / "rates-parabolic.csv", index=False)
     parts = [other / "rates-elliptic.csv", other / "rates-parabolic.csv"]
     md = tmp_path / "rates.md"
-    rates.main([ours], tmp_path / "rates.csv", md, tmp_path / "rates.tex",
+    rates.main([ours, ex5], tmp_path / "rates.csv", md, tmp_path / "rates.tex",
                tiers={"big": parts})
     out = pd.read_csv(tmp_path / "rates.csv")
-    assert out["rate_big"].tolist() == [-0.51] and out["rate"].tolist() == [-0.5]
+    assert out["rate"].round(3).tolist() == [-0.5, -0.301]
+    assert out["rate_big"].tolist() == [-0.51, -0.2]          # one row from each part
     note = md.read_text()
-    assert f"from `{parts[0]}` and `{parts[1]}` (Examples 1–3; its parabolic problems" in note
-    # one path, as before: no partial-table note
+    assert (f"from `{parts[0]}` and `{parts[1]}` (the big tier's Examples 1–3 and parabolic "
+            "problems whose error tables are kept; its other parabolic series") in note
+    # its elliptic table alone: Example 5 has no rate of that tier, and no "other"
+    rates.main([ours, ex5], tmp_path / "rates.csv", md, tmp_path / "rates.tex",
+               tiers={"big": [parts[0]]})
+    assert pd.read_csv(tmp_path / "rates.csv")["rate_big"].isna().tolist() == [False, True]
+    assert "(the big tier's Examples 1–3; its parabolic series are not" in md.read_text()
+    # its full table (one path): no note on partial tables
+    full = other / "rates.csv"
+    full.write_bytes(parts[0].read_bytes())
     rates.main([ours], tmp_path / "rates.csv", md, tmp_path / "rates.tex",
-               tiers={"big": str(parts[0])})
-    assert "Examples 1–3" in md.read_text() and "parabolic problems whose" not in md.read_text()
+               tiers={"big": str(full)})
+    assert "not finished" not in md.read_text()
     # the same row in both partial tables is refused (join_tiers: repeats a row)
     pd.DataFrame([fitted(1, "", -0.4)]).to_csv(parts[1], index=False)
     with pytest.raises(ValueError, match="repeats a row"):

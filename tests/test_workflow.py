@@ -267,7 +267,12 @@ def test_rate_table_of_the_kept_parabolic_problems_runs_nothing_else(tmp_path):
     assert "paper-figures/rates.csv" in inputs        # the default tier's rates beside them
     code, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
                          "--", f"{tmp_path}/o/rates-parabolic.csv", ok=False)
-    assert code != 0 and "parabolic.kept_errors=None" in text
+    assert code != 0 and "parabolic.kept_errors is null" in text
+    (tmp_path / "kept").mkdir()
+    (tmp_path / "k.yaml").write_text(f"parabolic:\n  kept_errors: {tmp_path}/kept\n")
+    code, text = dry_run("--configfile", "config/paper.yaml", str(tmp_path / "k.yaml"),
+                         "--", "rates_parabolic", ok=False)
+    assert code != 0 and "holds no <problem>-errors.csv of ex4-u1, ex4-u2, ex5" in text
 
 
 def test_kept_error_tables_replace_the_runs_they_were_made_from(tmp_path):

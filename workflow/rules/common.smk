@@ -125,13 +125,11 @@ TIER = config.get("tier", "default")
 JOB_THREADS = config.get("job_threads", 2)
 
 
-PARTIAL_RATE_TABLES = ("rates-elliptic.csv", "rates-parabolic.csv")
-
-
 def tier_table(p):
     """A tier's rate tables: [its rates.csv], or while that tier's parabolic series are
-    unfinished, those of the partial tables beside it that exist (rules rates_elliptic,
-    rates_parabolic: Examples 1-3, its finished parabolic problems); [] if none."""
+    unfinished, whichever of the partial tables beside it exist (rules rates_elliptic,
+    rates_parabolic: Examples 1-3, its problems with kept error tables); [] if none."""
+    from fracfem_workflow.report import PARTIAL_RATE_TABLES
     if Path(p).exists():
         return [str(p)]
     return [str(q) for q in (Path(p).with_name(n) for n in PARTIAL_RATE_TABLES) if q.exists()]
@@ -146,8 +144,10 @@ def other_tiers(wildcards=None):
 
 
 def other_tier_tables(wildcards=None):
-    """Every rate table of other_tiers, the inputs of the rate tables."""
-    return [p for ps in other_tiers().values() for p in ps]
+    """Every rate table of other_tiers, the inputs of the rate tables: read, never made
+    here, and marked ancient, since each tier's table reads the other's (a table rewritten
+    by its own tier does not make the other out of date)."""
+    return [ancient(p) for ps in other_tiers().values() for p in ps]
 
 
 def absent_tiers():
@@ -515,13 +515,20 @@ def para_errors_table(problem):
 def kept_para_tables(wildcards=None):
     """The kept error tables this configuration reads (para_errors_table), the inputs of
     rule rates_parabolic: a tier's finished parabolic problems; raises when there is none."""
+    if PARA.get("kept_errors") is None:
+        raise ValueError("rates_parabolic: config parabolic.kept_errors is null: set it to the "
+                         "folder of the kept error tables (config/paper.yaml does)")
     kept = [para_errors_table(p) for p in PARA_PROBLEMS
             if para_errors_table(p) == str(kept_para_errors(p))]
-    if not kept:
-        raise ValueError("rates_parabolic: no parabolic problem has a kept error table made "
-                         f"with this configuration (parabolic.kept_errors="
-                         f"{PARA.get('kept_errors')!r}; the log names why one is not read)")
-    return kept
+    if kept:
+        return kept
+    there = [p for p in PARA_PROBLEMS if kept_para_errors(p).exists()]
+    raise ValueError(
+        "rates_parabolic: no parabolic problem has a kept error table made with this "
+        "configuration: " + (f"those of {', '.join(there)} differ from it (the warnings "
+                             "above say how)" if there else
+                             f"parabolic.kept_errors={PARA['kept_errors']!r} holds no "
+                             "<problem>-errors.csv of " + ", ".join(PARA_PROBLEMS)))
 
 
 def para_error_tables(wildcards):

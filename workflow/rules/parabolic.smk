@@ -550,6 +550,7 @@ rule para_errors_commit:
 # config/paper.yaml`: keep a problem's error table in the repository (parabolic.kept_errors;
 # written as a param, not an output: a fresh clone reads the copy as it is), so that the
 # figures and tables of a tier whose problems take an allocation each are made from them
+# (then `snakemake --cores 2 rates_parabolic --configfile config/paper.yaml`: their rates)
 rule para_errors_keep:
     input:
         csv=rules.para_errors.output.csv,

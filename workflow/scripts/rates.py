@@ -5,7 +5,7 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path, write_table
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.report import join_tiers, rate_table
+from fracfem_workflow.report import PARTIAL_RATE_TABLES, join_tiers, rate_table
 
 
 # why a rate can differ from the paper's (README, "Differences from the paper")
@@ -117,23 +117,22 @@ def differences(rates, limit=0.05, time_split=()):
     return lines
 
 
-PARTIAL = {"rates-elliptic.csv": "Examples 1–3",
-           "rates-parabolic.csv": "its parabolic problems whose error tables are kept"}
-
-
 def tier_paths(paths):
     """A tier's rate tables as a list (one path, or its partial tables)."""
     return [str(paths)] if isinstance(paths, (str, Path)) else [str(p) for p in paths]
 
 
-def tier_source(paths):
-    """Where a tier's columns come from, for the note under the table."""
+def tier_source(name, paths):
+    """Where tier ``name``'s columns come from, for the note under the table."""
     paths = tier_paths(paths)
-    parts = [Path(p).name for p in paths if Path(p).name in PARTIAL]
+    parts = [PARTIAL_RATE_TABLES[Path(p).name] for p in paths
+             if Path(p).name in PARTIAL_RATE_TABLES]
     text = " and ".join(f"`{p}`" for p in paths)
     if parts:
-        text += (" (" + "; ".join(PARTIAL[n] for n in parts)
-                 + ": its other parabolic series are not finished)")
+        held = " and ".join(parts).replace("its ", "")
+        others = "other " if "rates-parabolic.csv" in {Path(p).name for p in paths} else ""
+        text += (f" (the {name} tier's {held}; its {others}parabolic series are not "
+                 "finished)")
     return text
 
 
@@ -148,11 +147,11 @@ def tiers_note(tier, tiers, absent, configured):
     if tiers:
         lines.append("Beside this tier's (" + tier + ") rates: " + "; ".join(
             f"`rate_{n}`, `n_points_{n}`, `dof_max_{n}`, `smallest_error_{n}` from "
-            + tier_source(p) for n, p in tiers.items()) + ", the same rows fitted by the "
+            + tier_source(n, p) for n, p in tiers.items()) + ", the same rows fitted by the "
             "same rule.")
     for n in absent:
-        lines.append(f"The tier {n} has not been run here (no `{configured[n]}`, nor the "
-                     "partial `" + "`, `".join(PARTIAL) + "` beside it).")
+        lines.append(f"The tier {n} has not been run here (no `{configured[n]}`, nor either "
+                     "partial table (`" + "` or `".join(PARTIAL_RATE_TABLES) + "`) beside it).")
     return lines
 
 

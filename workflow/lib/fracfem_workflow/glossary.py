@@ -80,9 +80,9 @@ GROUPS = [
               for c in ("rate", "n_points", "dof_max", "smallest_error")):
             "the same row's `rate`, `n_points`, `dof_max` and `smallest_error` in the tier "
             "named after the underscore (`config.yaml`: `tiers`), shown where that tier's "
-            "`rates.csv` exists, or, its parabolic series unfinished, its partial tables "
-            "`rates-elliptic.csv` (Examples 1–3) and `rates-parabolic.csv` (its parabolic "
-            "problems whose error tables are kept)",
+            "`rates.csv` exists, or, its parabolic series unfinished, from whichever of its "
+            "partial tables exist: `rates-elliptic.csv` (Examples 1–3), `rates-parabolic.csv` "
+            "(its parabolic problems whose error tables are kept)",
     }),
     ("Error against wall time (`elliptic-error-vs-time.md`, `parabolic-runs.md`)", True, {
         "common error": "the largest of the families' smallest errors",
