@@ -143,6 +143,10 @@ def reading(df) -> str:
         f"{an.roundoff_over_err2.max():.2g} of err²; largest relative residual: "
         f"{an.residual.max():.2g}; largest aspect ratio: {an.max_aspect.max():.3g}.",
     ]
+    lines.append(f"The anisotropic cases took {an.seconds.sum():.0f} s wall time and "
+                 f"{an.cpu_seconds.sum():.0f} s CPU time (all threads): wall seconds grow when "
+                 "other processes share the cores, CPU seconds hardly, so compare cases by "
+                 "`cpu_seconds`.")
     ok = (an.quad_change_over_err2.max() < 1e-2 and an.roundoff_over_err2.max() < 1e-6
           and an.galerkin_ok.all() and an.spd.all())
     lines.append("Quadrature, conditioning and round-off stay far below the error in every case: "
@@ -235,7 +239,8 @@ def main(md, png, csv, log=None, threads=None):
     cols = ["case", "s", "dofs", "h_min", "min_angle", "error", "galerkin_ok", "spd", "cond",
             "quad_change_over_err2", "status"]
     aniso = ["case", "dofs", "thinnest_layer", "max_aspect", "error", "quad_change_over_err2",
-             "cond", "cond_scaled", "roundoff_over_err2", "residual", "seconds", "status"]
+             "cond", "cond_scaled", "roundoff_over_err2", "residual", "seconds", "cpu_seconds",
+             "status"]
     an = df.family.notna()
     with atomic_path(md) as tmp:
         tmp.write_text(df.loc[~an, cols].to_markdown(index=False, floatfmt=".3g") + "\n\n"

@@ -265,6 +265,8 @@ GROUPS = [
         "status": "`ok`, or `refused:` and the error the library raised",
         "seconds": "wall seconds of the case; `pipeline-cost.md`: of the job, summed over "
                    "the part's jobs",
+        "cpu_seconds": "`stability.md`: CPU seconds of the case, all threads (process time): "
+                       "unlike `seconds`, hardly changed by other processes on the cores",
         "h_min": "shortest edge",
         ("min_angle", "min angle [°]"): "smallest angle of the (fine) mesh, degrees",
         "galerkin_ok": "(f,u_h) < (f,u), the Galerkin bound",
