@@ -275,6 +275,19 @@ def test_rate_table_of_the_kept_parabolic_problems_runs_nothing_else(tmp_path):
     assert code != 0 and "holds no <problem>-errors.csv of ex4-u1, ex4-u2, ex5" in text
 
 
+def test_time_split_of_a_kept_problem_reruns_its_first_passes_only():
+    """para_time_split reruns Algorithm C's first passes itself and reads only the reference
+    error and graded runs of the errors table: with Example 5's kept table (paper-scale
+    tier) it needs the reference's family, not Algorithm C's run nor the series."""
+    _, text = dry_run("--configfile", "config/paper.yaml", "--forceall", "--",
+                      "paper-figures/paper-scale/ex5-time-split.md")
+    jobs = job_counts(text)
+    assert jobs["para_time_split"] == 1 and "para_reference_family" in jobs
+    assert not {"para_adaptive", "para_errors", "para_solve"} & set(jobs)
+    split = text.split("rule para_time_split:")[1].split("output:")[0]
+    assert "workflow/data/tables/paper-scale/ex5-errors.csv" in split
+
+
 def test_kept_error_tables_replace_the_runs_they_were_made_from(tmp_path):
     """parabolic.kept_errors: Figure 15 of the paper-scale tier reads Example 5's kept error
     table (the committed one, with the settings it was made with beside it) where it exists

@@ -457,7 +457,9 @@ rule para_time_split:
         operator=para_reference_operator,
         coarser=para_reference_coarser,
         family=rules.para_reference_family.output.pkl,
-        errors=rules.para_errors.output.csv,
+        # its reference error and graded runs: a kept table where there is one (it reruns
+        # Algorithm C's first passes itself, so a tier's kept problems need no pass of theirs)
+        errors=lambda w: para_errors_table(w.problem),
     output:
         md=report(
             f"{OUT}/{{problem}}-time-split.md",
