@@ -809,24 +809,3 @@ def test_rate_table_shows_a_tier_from_its_partial_tables(tmp_path):
         rates.main([ours], tmp_path / "rates.csv", md, tmp_path / "rates.tex",
                    tiers={"big": parts})
 
-
-def test_stability_reading_states_the_verdict_and_both_clocks_from_the_table():
-    """stability.md's reading: the error of each series, the largest quadrature change,
-    the verdict (approximation-limited only when every check is far below the error),
-    and wall against CPU seconds summed over the anisotropic cases."""
-    stability = script("stability")
-    df = pd.DataFrame({"family": ["n-series"] * 2 + ["outer layer"], "status": "ok",
-                       "grading": 2.0, "n": [4, 8, 8], "dofs": [57, 257, 308],
-                       "error": [0.2, 0.1, 0.09], "thinnest_layer": [0.06, 0.016, 1e-4],
-                       "quad_change_over_err2": [1e-5, 2e-5, 3e-5],
-                       "case": ["a", "b", "c"], "cond": 5.0, "cond_scaled": 4.0,
-                       "roundoff_over_err2": 1e-14, "residual": 1e-15, "max_aspect": 10.0,
-                       "galerkin_ok": True, "spd": True, "seconds": [10.0, 30.0, 100.0],
-                       "cpu_seconds": [19.0, 58.0, 60.0]})
-    text = stability.reading(df)
-    assert "error 0.2, 0.1 (falls at every step; last slope against DOFs -0.46)" in text
-    assert "took 140 s wall time and 137 s CPU time" in text
-    assert "the error is limited by the approximation alone" in text
-    worse = stability.reading(df.assign(quad_change_over_err2=[1e-5, 0.02, 3e-5]))
-    assert "Largest quadrature change under `raised()`: 0.02 of err² (b" in worse
-    assert "At least one case is limited by quadrature" in worse

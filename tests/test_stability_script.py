@@ -68,3 +68,14 @@ def test_reading_states_what_limits_the_error():
     stuck = st.reading(_rows([0.2, 0.1, 0.11], quad=0.05))
     assert "stops falling" in stuck and "At least one case is limited" in stuck
     assert "0.05 of err²" in stuck
+
+
+def test_reading_sums_both_clocks_over_every_anisotropic_case():
+    """Wall against CPU seconds over the anisotropic cases, a refused one included; a table
+    from before the CPU clock (no such columns) is read without them."""
+    rows = _rows([0.2, 0.1, 0.05]).assign(seconds=[10.0, 30.0, 100.0, 20.0],
+                                           cpu_seconds=[19.0, 58.0, 60.0, 3.0])
+    refused = rows.iloc[[0]].assign(status="refused: x", seconds=1000.0, cpu_seconds=1.0)
+    text = st.reading(pd.concat([rows, refused], ignore_index=True))
+    assert "took 1160 s wall time and 141 s CPU time (all threads; 0.12 CPU seconds" in text
+    assert "wall time" not in st.reading(_rows([0.2, 0.1, 0.05]))

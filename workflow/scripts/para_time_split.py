@@ -119,6 +119,9 @@ def graded_series(make, ex, known, graded_h, grading, tau_factor, T, refinements
         for m in refinements:
             t0 = time.perf_counter()
             if m == 1:
+                # the errors table's (a kept copy: measured against the family as built
+                # where it was made, the same runs as this job's as long as they are
+                # reproduced bit for bit, as the committed checkpoints need too)
                 measured = {k: float(row[k]) for k in
                             ("error", "error_uncertainty", "error_vs_reference")}
             else:
