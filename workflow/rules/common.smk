@@ -518,8 +518,7 @@ def kept_para_tables(wildcards=None):
     if PARA.get("kept_errors") is None:
         raise ValueError("rates_parabolic: config parabolic.kept_errors is null: set it to the "
                          "folder of the kept error tables (config/paper.yaml does)")
-    kept = [para_errors_table(p) for p in PARA_PROBLEMS
-            if para_errors_table(p) == str(kept_para_errors(p))]
+    kept = [t for p in PARA_PROBLEMS if (t := para_errors_table(p)) == str(kept_para_errors(p))]
     if kept:
         return kept
     there = [p for p in PARA_PROBLEMS if kept_para_errors(p).exists()]

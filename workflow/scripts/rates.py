@@ -129,7 +129,7 @@ def tier_source(name, paths):
              if Path(p).name in PARTIAL_RATE_TABLES]
     text = " and ".join(f"`{p}`" for p in paths)
     if parts:
-        held = " and ".join(parts).replace("its ", "")
+        held = " and ".join(parts)
         others = "other " if "rates-parabolic.csv" in {Path(p).name for p in paths} else ""
         text += (f" (the {name} tier's {held}; its {others}parabolic series are not "
                  "finished)")

@@ -172,8 +172,7 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
 # a tier whose parabolic series are unfinished has, in place of its rates.csv, whichever of
 # these partial tables its rules have written (file name: what it holds)
 PARTIAL_RATE_TABLES = {"rates-elliptic.csv": "Examples 1–3",
-                       "rates-parabolic.csv": "its parabolic problems whose error tables are "
-                                              "kept"}
+                       "rates-parabolic.csv": "parabolic problems whose error tables are kept"}
 
 TIER_KEYS = ["example", "variant", "family", "s"]
 TIER_COLUMNS = ["rate", "n_points", "dof_max", "smallest_error"]
