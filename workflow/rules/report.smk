@@ -1,6 +1,22 @@
 # Rate table (paper-figures/rates.csv, .md, .tex) and the assembly benchmark.
 
 
+def rate_table_outputs(stem):
+    """The outputs of a rate table (rates, rates_elliptic, rates_parabolic): OUT/<stem>.csv
+    and .md, both shown in the report, and .tex beside them."""
+    def shown(ext):
+        return report(f"{OUT}/{stem}.{ext}", caption="../../report/captions/rates.rst",
+                      category="Across examples", subcategory="Rate table")
+
+    return {"csv": shown("csv"), "md": shown("md"), "tex": f"{OUT}/{stem}.tex"}
+
+
+def rate_table_tiers():
+    """The params every rate table shares: this tier's name, the other tiers' tables
+    (other_tiers) and the tiers of the config with none yet."""
+    return {"tier": TIER, "tiers": other_tiers(), "absent": absent_tiers()}
+
+
 rule rates:
     input:
         ex1=rules.ex1_table.output.table,
@@ -8,23 +24,9 @@ rule rates:
         para=[para_errors_table(p) for p in PARA_PROBLEMS],
         tiers=other_tier_tables,
     output:
-        csv=report(
-            f"{OUT}/rates.csv",
-            caption="../../report/captions/rates.rst",
-            category="Across examples",
-            subcategory="Rate table",
-        ),
-        md=report(
-            f"{OUT}/rates.md",
-            caption="../../report/captions/rates.rst",
-            category="Across examples",
-            subcategory="Rate table",
-        ),
-        tex=f"{OUT}/rates.tex",
+        **rate_table_outputs("rates"),
     params:
-        tier=TIER,
-        tiers=other_tiers(),
-        absent=absent_tiers(),
+        **rate_table_tiers(),
         time_split=PARA["time_split"]["problems"],   # the tables the explanations may cite
     log:
         f"{RES}/logs/rates.log",
@@ -45,23 +47,9 @@ rule rates_elliptic:
         vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
         tiers=other_tier_tables,
     output:
-        csv=report(
-            f"{OUT}/rates-elliptic.csv",
-            caption="../../report/captions/rates.rst",
-            category="Across examples",
-            subcategory="Rate table",
-        ),
-        md=report(
-            f"{OUT}/rates-elliptic.md",
-            caption="../../report/captions/rates.rst",
-            category="Across examples",
-            subcategory="Rate table",
-        ),
-        tex=f"{OUT}/rates-elliptic.tex",
+        **rate_table_outputs("rates-elliptic"),
     params:
-        tier=TIER,
-        tiers=other_tiers(),
-        absent=absent_tiers(),
+        **rate_table_tiers(),
         time_split=[],
     log:
         f"{RES}/logs/rates_elliptic.log",
@@ -82,23 +70,9 @@ rule rates_parabolic:
         para=kept_para_tables,
         tiers=other_tier_tables,
     output:
-        csv=report(
-            f"{OUT}/rates-parabolic.csv",
-            caption="../../report/captions/rates.rst",
-            category="Across examples",
-            subcategory="Rate table",
-        ),
-        md=report(
-            f"{OUT}/rates-parabolic.md",
-            caption="../../report/captions/rates.rst",
-            category="Across examples",
-            subcategory="Rate table",
-        ),
-        tex=f"{OUT}/rates-parabolic.tex",
+        **rate_table_outputs("rates-parabolic"),
     params:
-        tier=TIER,
-        tiers=other_tiers(),
-        absent=absent_tiers(),
+        **rate_table_tiers(),
         # the time-split pages its explanations may cite: those this tier has made
         time_split=[p for p in PARA["time_split"]["problems"]
                     if Path(f"{OUT}/{p}-time-split.md").exists()],
