@@ -809,3 +809,36 @@ def test_rate_table_shows_a_tier_from_its_partial_tables(tmp_path):
         rates.main([ours], tmp_path / "rates.csv", md, tmp_path / "rates.tex",
                    tiers={"big": parts})
 
+
+
+def test_time_split_refuses_a_graded_error_measured_against_another_family(tmp_path):
+    """The graded run of an errors table is solved again and measured against the job's
+    reference: the table's own error passes and becomes the m = 1 row; a table measured
+    against another reference (its error off by 10⁻⁴ relative) is refused, naming the run."""
+    from fracfem_workflow.runs import parabolic_pieces, stored_reference
+
+    split, solve = script("para_time_split"), script("para_solve")
+    quad, data, T = {}, {"s": 0.5, "u0": 2.0}, 0.3
+    ref, run = tmp_path / "ref.npz", tmp_path / "run.npz"
+    solve.main("ex4-u2", "reference", "L3", "ex4", data, 2.0, T, 0.5, 1e-10, quad,
+               tmp_path / "ref.csv", ref)
+    solve.main("ex4-u2", "graded", "h0.4", "ex4", data, 2.0, T, 0.5, 1e-10, quad,
+               tmp_path / "run.csv", run)
+    options = ff.QuadratureOptions(**quad)
+    reference, _ = stored_reference(ref, options)
+    ex = ff.example("ex4", **data)
+
+    def prob_of(mesh):
+        return ex.problem(mesh, options, operator="dense")
+
+    stored = reference.distance(parabolic_pieces(run)[0])
+    known = pd.read_csv(tmp_path / "run.csv").assign(error=stored,
+                                                      error_uncertainty=np.nan)
+    graded = split.graded_series(prob_of, ex, known, [0.4], 2.0, 0.5, T, [1, 4], 1e-10,
+                                 reference, "ex4-u2")
+    assert graded.m.tolist() == [1, 4]
+    assert graded.error.iloc[0] == pytest.approx(stored, rel=1e-9)
+    assert graded.error.iloc[1] != pytest.approx(stored, rel=1e-3)   # τ/4 changes it
+    with pytest.raises(ValueError, match=r"graded run h0\.4: error .* another family"):
+        split.graded_series(prob_of, ex, known.assign(error=stored * (1 + 1e-4)), [0.4],
+                            2.0, 0.5, T, [1, 4], 1e-10, reference, "ex4-u2")

@@ -2,9 +2,9 @@
 its own space-time mesh with m times the time steps of every slab, the space meshes kept
 (fracfem.solve_slabs); and the same for the graded series, each run solved again on its
 mesh with m times its uniform time steps.  One change (τ → τ/m): what the error loses is
-the time steps' part; what remains is the space meshes' part plus τ/m's own.  Like every error here, it
-is the distance to the limit of the reference's family with its measured uncertainty,
-which the fits' 3× rule keeps in view (runs.family_error).
+the time steps' part; what remains is the space meshes' part plus τ/m's own.  Like every
+error here, it is the distance to the limit of the reference's family with its measured
+uncertainty, which the fits' 3× rule keeps in view (runs.family_error).
 """
 import time
 
@@ -23,6 +23,10 @@ from fracfem_workflow.runs import (family_error, parameter_columns, solved_piece
 logger = script_logger("para_time_split")
 # the re-solves' own cache, beside Algorithm C's (which keeps its default)
 CACHE_BYTES = "1G"
+# a graded run solved again agrees with its stored self to round-off
+# (test_solved_pieces_reproduce_a_run_stored_by_para_solve), and so does its error measured
+# against the same reference family; against another family it differs far more
+RTOL_SAME_FAMILY = 1e-6
 
 
 def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dofs,
@@ -98,8 +102,9 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
 
 def graded_series(make, ex, known, graded_h, grading, tau_factor, T, refinements, tol,
                   reference, problem):
-    """The graded runs (errors.csv's rows: m = 1) and the same meshes solved again with m
-    times their time steps, measured against the reference's family (runs.family_error)."""
+    """The graded runs of errors.csv solved again on their meshes with m times their time
+    steps, measured against the reference's family (runs.family_error); m = 1 must give
+    the table's own errors (same_family)."""
     rows = []
     runs = known[known.family == "graded"] if "family" in known else known.iloc[:0]
     for h in graded_h:
@@ -118,23 +123,33 @@ def graded_series(make, ex, known, graded_h, grading, tau_factor, T, refinements
                              f"grading={grading:g}, tau_factor={tau_factor:g}")
         for m in refinements:
             t0 = time.perf_counter()
+            times = np.linspace(0.0, T, n * m + 1)
+            measured = family_error(reference, solved_pieces(prob, ex.initial_value, times,
+                                                             tol))
             if m == 1:
-                # the errors table's (a kept copy: measured against the family as built
-                # where it was made, the same runs as this job's as long as they are
-                # reproduced bit for bit, as the committed checkpoints need too)
-                measured = {k: float(row[k]) for k in
-                            ("error", "error_uncertainty", "error_vs_reference")}
-            else:
-                times = np.linspace(0.0, T, n * m + 1)
-                measured = family_error(reference, solved_pieces(prob, ex.initial_value,
-                                                                 times, tol))
+                same_family(measured, row, tag)
             rows.append({"problem": problem, "tag": tag, "m": m, "tau_factor": tau_factor,
                          "spacetime_dofs": int(row.dofs) * n * m, "steps": n * m,
                          "dofs": int(row.dofs), **measured,
-                         "t_resolve": time.perf_counter() - t0 if m > 1 else np.nan})
+                         "t_resolve": time.perf_counter() - t0})
             logger.info("graded %s, m = %d: %d steps, error %.4e", tag, m, n * m,
                         measured["error"])
     return pd.DataFrame(rows)
+
+
+def same_family(measured, row, tag, rtol=RTOL_SAME_FAMILY):
+    """Refuse a graded run whose error, solved again and measured against this job's
+    reference family, is not the errors table's: that table (a kept copy, made where it was
+    measured) was measured against another family, and the page would compare its runs
+    with re-solves measured against this one."""
+    for key in ("error", "error_uncertainty"):
+        if key in row and not np.isclose(measured[key], float(row[key]), rtol=rtol, atol=0.0,
+                          equal_nan=True):
+            raise ValueError(
+                f"graded run {tag}: {key} {measured[key]:.10g} against this job's reference "
+                f"family, {float(row[key]):.10g} in the errors table (relative tolerance "
+                f"{rtol:g}): the table was measured against another family (other code, "
+                "settings or runs); rebuild the table or its family")
 
 
 def _split(df, key, refinements, ref_error, itself="as the run", fitted="fitted tag"):
