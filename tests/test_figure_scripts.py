@@ -810,7 +810,6 @@ def test_rate_table_shows_a_tier_from_its_partial_tables(tmp_path):
                    tiers={"big": parts})
 
 
-
 def test_time_split_refuses_a_graded_error_measured_against_another_family(tmp_path):
     """The graded run of an errors table is solved again and measured against the job's
     reference: the table's own error passes and becomes the m = 1 row; a table measured
@@ -828,12 +827,12 @@ def test_time_split_refuses_a_graded_error_measured_against_another_family(tmp_p
     reference, _ = stored_reference(ref, options)
     ex = ff.example("ex4", **data)
 
-    def prob_of(mesh):
-        return ex.problem(mesh, options, operator="dense")
+    def prob_of(mesh, operator="compressed"):    # the run's own: dense (para_solve's)
+        return ex.problem(mesh, options, operator=operator)
 
     stored = reference.distance(parabolic_pieces(run)[0])
-    known = pd.read_csv(tmp_path / "run.csv").assign(error=stored,
-                                                      error_uncertainty=np.nan)
+    known = pd.read_csv(tmp_path / "run.csv").assign(error=stored, error_uncertainty=np.nan,
+                                                      error_vs_reference=stored)
     graded = split.graded_series(prob_of, ex, known, [0.4], 2.0, 0.5, T, [1, 4], 1e-10,
                                  reference, "ex4-u2")
     assert graded.m.tolist() == [1, 4]

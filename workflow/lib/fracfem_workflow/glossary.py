@@ -259,8 +259,8 @@ GROUPS = [
         "t_resolve": "`time-split.csv`: seconds to solve and estimate the pass again with m "
                      "times the steps, its operators read back from the operator cache "
                      "(m = 1: the pass's own time, with its assembly); a graded run: "
-                     "seconds to solve it again with m times its steps (m = 1 too: checked "
-                     "against its kept error) and measure it",
+                     "seconds to solve it again with m times its steps and measure it (m = 1 "
+                     "too: checked against the errors table's error and uncertainty)",
     }),
     ("Stability (`stability.md`, `stability-vi.md`)", False, {
         "case": "what was run",
