@@ -790,6 +790,11 @@ def test_rate_table_shows_a_tier_from_its_partial_tables(tmp_path):
     assert out["rate"].round(3).tolist() == [-0.5, -0.301]
     assert out["rate_big"].tolist() == [-0.51, -0.2]          # one row from each part
     note = md.read_text()
+    rows = [r for r in note.splitlines() if r.startswith("|") and "uniform" in r]
+    assert rows and all(len(re.findall(r"\|\s*1000000\s*\|", r)) == 1 and "e+06" not in r
+                        for r in rows)                          # dof_max_big, whole
+    wide = rates.shown_counts(out.assign(dof_max_big=[16440205, None]))
+    assert re.search(r"\|\s*16440205\s*\|", wide.to_markdown(index=False, floatfmt="g"))
     assert (f"from `{parts[0]}` and `{parts[1]}` (the big tier's Examples 1–3 and parabolic "
             "problems whose error tables are kept; its other parabolic series") in note
     # its elliptic table alone: Example 5 has no rate of that tier, and no "other"

@@ -155,6 +155,18 @@ def tiers_note(tier, tiers, absent, configured):
     return lines
 
 
+def shown_counts(rates: pd.DataFrame) -> pd.DataFrame:
+    """The table as the page shows it: counts and DOFs as whole numbers, blank where
+    missing (another tier's are floats when a row has none, which the page would print
+    as 1.64402e+07)."""
+    shown = rates.copy()
+    for c in shown.columns:
+        if c in ("n_points", "n_excluded", "dof_min", "dof_max") or \
+                c.startswith(("n_points_", "dof_max_")):
+            shown[c] = shown[c].map(lambda v: "" if pd.isna(v) else str(int(round(v))))
+    return shown
+
+
 def main(tables, csv, md, tex, tier="default", tiers=None, absent=(), configured=None,
          time_split=()):
     frames, dropped = [], 0
@@ -183,7 +195,7 @@ def main(tables, csv, md, tex, tier="default", tiers=None, absent=(), configured
         diff.append(f"- {dropped} runs with an energy below the reference energy are left "
                     "out of the fits.")
     with atomic_path(md) as tmp:
-        tmp.write_text(rates.to_markdown(index=False, floatfmt="g") + "\n"
+        tmp.write_text(shown_counts(rates).to_markdown(index=False, floatfmt="g") + "\n"
                        + ("\n" + "\n\n".join(notes) + "\n" if notes else "")
                        + ("\nWhere ours differ from the paper's by more than 0.05:\n\n"
                           + "\n".join(diff) + "\n" if diff else ""))
