@@ -802,6 +802,10 @@ def test_rate_table_shows_a_tier_from_its_partial_tables(tmp_path):
                tiers={"big": [parts[0]]})
     assert pd.read_csv(tmp_path / "rates.csv")["rate_big"].isna().tolist() == [False, True]
     assert "(the big tier's Examples 1–3; its parabolic series are not" in md.read_text()
+    # dof_max_big is a float column now (Example 5 has none): still shown whole, blank there
+    shown = [r for r in md.read_text().splitlines() if r.startswith("|") and "uniform" in r]
+    assert len(re.findall(r"\|\s*1000000\s*\|", shown[0])) == 1 and "e+06" not in shown[0]
+    assert "nan |" not in shown[1].split("|", 16)[-1]           # the big tier's columns
     # its full table (one path): no note on partial tables
     full = other / "rates.csv"
     full.write_bytes(parts[0].read_bytes())
