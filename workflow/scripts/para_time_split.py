@@ -16,7 +16,7 @@ from fracfem.meshes import mesh_size
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import (fit_mask, local_slopes, masked_rate, paper_rate,
-                                     with_fit_bound)
+                                     whole_numbers, with_fit_bound)
 from fracfem_workflow.runs import (family_error, parameter_columns, solved_pieces, start,
                                    stored_family)
 
@@ -204,7 +204,7 @@ def report(df, ref_error, refinements, paper=None, graded=None, paper_graded=Non
     if paper is not None:
         head += f"; the paper's adaptive rate is {paper:g}"
     text = (head + ".\n\n" + fits.to_markdown(index=False, floatfmt=".3f")
-            + "\n\n" + _ints_as_ints(out).to_markdown(index=False, floatfmt=".4g") + "\n")
+            + "\n\n" + whole_numbers(out).to_markdown(index=False, floatfmt=".4g") + "\n")
     if graded is not None and len(graded):
         gfits, gout = _split(graded, "tag", refinements, ref_error)
         text += ("\nThe graded series solved again on the same meshes with m times its time "
@@ -213,13 +213,8 @@ def report(df, ref_error, refinements, paper=None, graded=None, paper_graded=Non
                  + (f"; the paper's graded rate is {paper_graded:g}"
                     if paper_graded is not None and np.isfinite(paper_graded) else "")
                  + ".\n\n" + gfits.to_markdown(index=False, floatfmt=".3f") + "\n\n"
-                 + _ints_as_ints(gout).to_markdown(index=False, floatfmt=".4g") + "\n")
+                 + whole_numbers(gout).to_markdown(index=False, floatfmt=".4g") + "\n")
     return text
-
-
-def _ints_as_ints(df):
-    """Integer columns as Python ints, so that the all-numeric frame is not printed as floats."""
-    return df.astype({c: object for c in df.columns if pd.api.types.is_integer_dtype(df[c])})
 
 
 if __name__ == "__main__":

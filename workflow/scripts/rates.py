@@ -5,7 +5,8 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path, write_table
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.report import PARTIAL_RATE_TABLES, join_tiers, rate_table
+from fracfem_workflow.report import (PARTIAL_RATE_TABLES, join_tiers, rate_table,
+                                     whole_numbers)
 
 
 # why a rate can differ from the paper's (README, "Differences from the paper")
@@ -156,15 +157,10 @@ def tiers_note(tier, tiers, absent, configured):
 
 
 def shown_counts(rates: pd.DataFrame) -> pd.DataFrame:
-    """The table as the page shows it: counts and DOFs as whole numbers, blank where
-    missing (another tier's are floats when a row has none, which the page would print
-    as 1.64402e+07)."""
-    shown = rates.copy()
-    for c in shown.columns:
-        if c in ("n_points", "n_excluded", "dof_min", "dof_max") or \
-                c.startswith(("n_points_", "dof_max_")):
-            shown[c] = shown[c].map(lambda v: "" if pd.isna(v) else str(int(round(v))))
-    return shown
+    """The rate table as the page shows it: its counts and DOFs (another tier's too) whole."""
+    return whole_numbers(rates, [c for c in rates.columns if c in (
+        "n_points", "n_excluded", "dof_min", "dof_max") or c.startswith(("n_points_",
+                                                                          "dof_max_"))])
 
 
 def main(tables, csv, md, tex, tier="default", tiers=None, absent=(), configured=None,

@@ -7,7 +7,7 @@ import pandas as pd
 __all__ = ["PAPER_RATES", "PAPER_S", "REFERENCE_MARGIN", "paper_rate", "fit_rate", "fit_mask",
            "masked_rate",
            "rate_table", "extrapolate_energy", "extrapolation_uncertainty",
-           "energy_error", "time_to_reach", "algorithm_c_table", "PARTS"]
+           "energy_error", "time_to_reach", "algorithm_c_table", "PARTS", "whole_numbers"]
 
 # error in H^s vs DOFs (parabolic: vs space-time DOFs), paper Section 8
 PAPER_RATES = {
@@ -176,6 +176,19 @@ PARTIAL_RATE_TABLES = {"rates-elliptic.csv": "Examples 1–3",
 
 TIER_KEYS = ["example", "variant", "family", "s"]
 TIER_COLUMNS = ["rate", "n_points", "dof_max", "smallest_error"]
+
+
+def whole_numbers(df: pd.DataFrame, columns=()) -> pd.DataFrame:
+    """The table as a page shows it: integer columns, and the ``columns`` named (counts
+    and DOFs that are floats because a row has none), as whole numbers, blank where
+    missing.  Printed as they are, an all-numeric frame shows 16,440,205 as 1.64402e+07
+    and a missing count as nan."""
+    shown = df.copy()
+    for c in shown.columns:
+        if c in columns or pd.api.types.is_integer_dtype(shown[c]):
+            shown[c] = pd.Series([None if pd.isna(v) else int(round(v)) for v in shown[c]],
+                                 index=shown.index, dtype=object)
+    return shown
 
 
 def join_tiers(rates: pd.DataFrame, others: dict) -> pd.DataFrame:
