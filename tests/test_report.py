@@ -1,4 +1,6 @@
 """Rates and reference energies (fracfem_workflow.report)."""
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -268,6 +270,20 @@ def test_join_tiers_puts_each_tiers_rate_beside_the_same_row():
         join_tiers(ours, {"x": pd.concat([big, big])})
     with pytest.raises(ValueError, match="lacks the columns"):
         join_tiers(ours, {"x": big.drop(columns="dof_max")})
+
+
+def test_whole_numbers_prints_counts_whole_and_missing_blank():
+    from fracfem_workflow.report import whole_numbers
+    df = pd.DataFrame({"passes": [3, 12], "dof_max": [16440205.0, np.nan],
+                       "rate": [-0.25, np.nan]})
+    shown = whole_numbers(df, ["dof_max"])
+    page = shown.to_markdown(index=False, floatfmt=".4g")
+    rows = page.splitlines()[2:]
+    assert re.search(r"\|\s*16440205\s*\|", rows[0]) and "e+07" not in page
+    assert rows[1].split("|")[2].strip() == ""                # missing DOFs: blank
+    assert rows[1].split("|")[3].strip() == "nan"             # a rate is not a count
+    assert shown["passes"].tolist() == [3, 12] and type(shown["passes"][0]) is int
+    assert df["dof_max"].dtype == float                       # the frame is not changed
 
 
 def test_local_slopes_per_series():
