@@ -763,6 +763,25 @@ def test_pipeline_cost_states_the_machine_speed_of_the_day(tmp_path):
         cost.speed_note(day, committed)
 
 
+def test_vi_runs_page_shows_counts_whole_and_blank_where_a_problem_has_none(tmp_path):
+    vi_runs = script("vi_runs_md")
+    obstacle, friction = tmp_path / "ex2.csv", tmp_path / "ex3.csv"
+    pd.DataFrame({"problem": "ex2", "family": "uniform", "dofs": [1985],
+                  "multipliers": [1024], "h_max": [0.0575], "contact": [84]}).to_csv(obstacle)
+    pd.DataFrame({"problem": "ex3", "family": "graded", "dofs": [3860],
+                  "multipliers": [1977], "h_max": [0.0737], "slip_plus": [1977],
+                  "stick": [0]}).to_csv(friction)
+    md = tmp_path / "vi-runs.md"
+    vi_runs.main([obstacle, friction], md)
+    rows = [r.split("|")[1:-1] for r in md.read_text().splitlines()[2:]]
+    head = [c.strip() for c in md.read_text().splitlines()[0].split("|")[1:-1]]
+    cell = {(r[0].strip(), h): v.strip() for r in rows for h, v in zip(head, r)}
+    assert cell["ex3", "slip_plus"] == "1977"                 # not 1.98e+03
+    assert cell["ex2", "slip_plus"] == "" and cell["ex3", "contact"] == ""
+    assert cell["ex2", "contact"] == "84" and cell["ex3", "stick"] == "0"
+    assert cell["ex2", "h_max"] == "0.0575"                   # not a count
+
+
 def test_rate_table_shows_a_tier_from_its_partial_tables(tmp_path):
     """A tier whose parabolic series are unfinished is read from its partial tables
     (rates-elliptic.csv, rates-parabolic.csv): each row's rate comes from the one that
