@@ -284,6 +284,8 @@ def test_whole_numbers_prints_counts_whole_and_missing_blank():
     assert rows[1].split("|")[3].strip() == "nan"             # a rate is not a count
     assert shown["passes"].tolist() == [3, 12] and type(shown["passes"][0]) is int
     assert df["dof_max"].dtype == float                       # the frame is not changed
+    with pytest.raises(ValueError, match="column 'rate': -0.25 is not a whole number"):
+        whole_numbers(df, "rate")                             # refused, not rounded to 0
 
 
 def test_local_slopes_per_series():

@@ -157,7 +157,8 @@ def tiers_note(tier, tiers, absent, configured):
 
 
 def shown_counts(rates: pd.DataFrame) -> pd.DataFrame:
-    """The rate table as the page shows it: its counts and DOFs (another tier's too) whole."""
+    """The rate table as the page shows it: its counts and DOFs (another tier's too) whole,
+    blank where missing."""
     return whole_numbers(rates, [c for c in rates.columns if c in (
         "n_points", "n_excluded", "dof_min", "dof_max") or c.startswith(("n_points_",
                                                                           "dof_max_"))])

@@ -9,8 +9,8 @@ COLUMNS = ["problem", "family", "dofs", "multipliers", "h_max", "iterations_uzaw
            "iterations_pdas", "contact", "slip_plus", "slip_minus", "stick",
            "max_du_uzawa_pdas", "max_dlambda_uzawa_pdas", "t_assembly", "t_schur",
            "t_uzawa", "t_pdas"]
-# counts: floats in the joined table where a problem has none (no slip in an obstacle
-# problem), shown whole and blank there
+# counts, shown whole: contact, slip and stick are floats in the joined table where a
+# problem has none (no slip in an obstacle problem), and blank there
 COUNTS = ["dofs", "multipliers", "iterations_uzawa", "iterations_pdas", "contact",
           "slip_plus", "slip_minus", "stick"]
 

@@ -181,13 +181,29 @@ TIER_COLUMNS = ["rate", "n_points", "dof_max", "smallest_error"]
 def whole_numbers(df: pd.DataFrame, columns=()) -> pd.DataFrame:
     """The table as a page shows it: integer columns, and the ``columns`` named (counts
     and DOFs that are floats because a row has none), as whole numbers, blank where
-    missing.  Printed as they are, an all-numeric frame shows 16,440,205 as 1.64402e+07
-    and a missing count as nan."""
+    missing.  As they are, an integer column of an all-numeric frame prints as floats,
+    and a float count in exponent form (1.98e+03) with its missing values as nan.
+
+    A named column holding a value that is not a whole number is refused (ValueError
+    naming the column and the value), not rounded."""
+    named = {columns} if isinstance(columns, str) else set(columns)
     shown = df.copy()
     for c in shown.columns:
-        if c in columns or pd.api.types.is_integer_dtype(shown[c]):
-            shown[c] = pd.Series([None if pd.isna(v) else int(round(v)) for v in shown[c]],
-                                 index=shown.index, dtype=object)
+        if c in named or pd.api.types.is_integer_dtype(shown[c]):
+            values = []
+            for v in shown[c]:
+                if pd.isna(v):
+                    values.append(None)
+                    continue
+                try:
+                    whole = float(v).is_integer()
+                except (TypeError, ValueError):
+                    whole = False
+                if not whole:
+                    raise ValueError(f"column {c!r}: {v!r} is not a whole number (a count "
+                                     "or DOFs shown whole)")
+                values.append(int(v))
+            shown[c] = pd.Series(values, index=shown.index, dtype=object)
     return shown
 
 
