@@ -16,8 +16,8 @@ from .assembly import mesh_arrays
 from .meshes import validates
 
 __all__ = ["locate", "interpolation_matrix", "interpolate", "interpolate_at", "transfer",
-           "space_time_distance", "SpaceTimeReference", "ReferenceFamily",
-           "extrapolated_distance"]
+           "space_time_distance", "SpaceTimeReference", "SlabwiseReference",
+           "ReferenceFamily", "extrapolated_distance"]
 
 
 def _element_maps(mesh):
@@ -210,6 +210,57 @@ class SpaceTimeReference:
         (nodal interpolation, zero outside its mesh); the time integral is exact
         on the union of both time grids, which must cover the same interval."""
         return float(_distances(pieces, [self])[0])
+
+
+class SlabwiseReference:
+    """A reference whose space mesh changes in time (an Algorithm C pass: one mesh per
+    time slab), to measure other functions against: ``distance(pieces)`` is
+    (Σ_slabs ‖I_j u − u_ref‖²_{L²(slab j; a_j)})^{1/2}, on each slab u interpolated
+    onto that slab's mesh and measured in its a-norm.
+
+    ``reference``: pieces (t0, t1, mesh, u) contiguous in time; consecutive pieces on
+    one mesh (the same object) form a slab.  ``operator(mesh)`` returns that mesh's
+    free-node matrix and free nodes, (A, free); it is called once per distinct mesh.
+    With one mesh throughout this is :class:`SpaceTimeReference`."""
+
+    def __init__(self, reference, operator, *, rank_rtol: float = RANK_RTOL):
+        _contiguous("reference", reference)
+        slabs: list = []
+        for pc in reference:
+            if slabs and slabs[-1][-1][2] is pc[2]:
+                slabs[-1].append(pc)
+            else:
+                slabs.append([pc])
+        ops: dict = {}
+        self.slabs = []
+        for slab in slabs:
+            mesh = slab[0][2]
+            if id(mesh) not in ops:
+                ops[id(mesh)] = operator(mesh)
+            A, free = ops[id(mesh)]
+            self.slabs.append(SpaceTimeReference(slab, A, free, rank_rtol=rank_rtol))
+        self.edges = _contiguous("reference", reference)
+
+    @property
+    def matvecs(self) -> int:
+        return sum(r.matvecs for r in self.slabs)
+
+    def distance(self, pieces) -> float:
+        """(Σ_slabs ‖I_j u − u_ref‖²_{L²(slab j; a_j)})^{1/2}; u must cover the
+        reference's time interval."""
+        ta = _contiguous("pieces", pieces)
+        tol = 1e-12 * max(abs(ta[-1]), abs(self.edges[-1]), 1e-300)
+        if abs(ta[0] - self.edges[0]) > tol or abs(ta[-1] - self.edges[-1]) > tol:
+            raise ValueError(f"time intervals differ: [{ta[0]}, {ta[-1]}] vs "
+                             f"[{self.edges[0]}, {self.edges[-1]}]")
+        total = 0.0
+        for ref in self.slabs:
+            a, b = ref.edges[0], ref.edges[-1]
+            # u's pieces on (a, b), cut at its ends (an overlap below tol is rounding)
+            within = [(max(t0, a), min(t1, b), mesh, u) for t0, t1, mesh, u in pieces
+                      if min(t1, b) - max(t0, a) > tol]
+            total += float(_distances(within, [ref])[0]) ** 2
+        return float(np.sqrt(total))
 
 
 def _distances(pieces, references) -> np.ndarray:

@@ -23,7 +23,7 @@ import pytest
 
 from fracfem import (assembly, exact, laplace, meshes, parabolic, spacetime_adaptive,
                      spacetime_estimators, vi)
-from fracfem.transfer import SpaceTimeReference
+from fracfem.transfer import SlabwiseReference, SpaceTimeReference
 
 S = 0.5
 
@@ -649,6 +649,62 @@ def test_space_time_reference_products_with_a_basis_match_one_product_per_piece(
                 assert 3 * used < len(pieces), (used, len(pieces))
     with pytest.raises(ValueError, match="rank_rtol"):
         SpaceTimeReference(reference, prob.disc.A, prob.disc.free, rank_rtol=1.0)
+
+
+def test_slabwise_reference_measures_each_slab_in_its_own_mesh():
+    """SlabwiseReference, an Algorithm C pass as the reference (one mesh per slab):
+    on one mesh throughout it is SpaceTimeReference, also when that mesh is split into
+    two slabs at a time inside u's steps; a pass shifted by c·w (w a nodal vector of
+    each mesh) is at c (Σ_j |slab j| wᵀA_j w)^{1/2}; the reference is at 0 from itself."""
+    recs = _ex4_run()[0]
+    make = _ex4_problem()
+    finest = recs[-1].slabs[-1].coarse
+    prob = make(finest)
+    reference = spacetime_adaptive.solve_slabs(
+        make, [spacetime_adaptive.Slab(0.0, 1.0, finest, n_steps=40)], 2.0, T=1.0).pieces
+    passes = [spacetime_adaptive.solve_slabs(make, rec.slabs, 2.0, T=1.0).pieces
+              for rec in recs]
+    one = SpaceTimeReference(reference, prob.disc.A, prob.disc.free)
+    calls, ops = [], {}
+
+    def operator(mesh):                                      # a piece's (fine) mesh
+        calls.append(mesh)
+        if id(mesh) not in ops:
+            disc = laplace.discretise(mesh, S, 0.0)
+            ops[id(mesh)] = disc.A, np.asarray(disc.free)
+        return ops[id(mesh)]
+
+    same = SlabwiseReference(reference, lambda m: (prob.disc.A, prob.disc.free))
+    fine = reference[0][2]
+    twin = meshes.MeshTri(fine.p.copy(), fine.t.copy())       # the same mesh, another object
+    split = SlabwiseReference([pc if k < 13 else (pc[0], pc[1], twin, pc[3])
+                               for k, pc in enumerate(reference)], operator)
+    assert len(split.slabs) == 2 and len(calls) == 2         # t = 13/40: inside u's steps
+    for pieces in passes:
+        d = one.distance(pieces)
+        assert same.distance(pieces) == pytest.approx(d, rel=1e-12)
+        assert split.distance(pieces) == pytest.approx(d, rel=1e-10)
+    # the last pass as the reference: its slabs' meshes differ
+    last = passes[-1]
+    calls.clear()
+    passwise = SlabwiseReference(last, operator)
+    distinct = list({id(pc[2]): pc[2] for pc in last}.values())
+    # slabs on one mesh object in a row are measured as one (here 3 slabs, 2 meshes)
+    assert len(recs[-1].slabs) >= len(passwise.slabs) >= len(distinct) > 1
+    assert [id(m) for m in calls] == [id(m) for m in distinct]  # one operator per mesh
+    assert passwise.distance(last) < 1e-12 * passwise.distance(passes[0])
+    rng = np.random.default_rng(4)
+    w = {}
+    for m in distinct:
+        A, free = ops[id(m)]
+        w[id(m)] = np.zeros(m.p.shape[1])
+        w[id(m)][free] = rng.standard_normal(len(free))
+    expected = sum((t1 - t0) * w[id(m)][ops[id(m)][1]] @ (
+        ops[id(m)][0] @ w[id(m)][ops[id(m)][1]]) for t0, t1, m, _ in last)
+    shifted = [(t0, t1, m, u + 0.3 * w[id(m)]) for t0, t1, m, u in last]
+    assert passwise.distance(shifted) == pytest.approx(0.3 * np.sqrt(expected), rel=1e-10)
+    with pytest.raises(ValueError, match="time intervals differ"):
+        passwise.distance([(2 * t0, 2 * t1, m, u) for t0, t1, m, u in last])   # on [0, 2]
 
 
 def test_solve_slabs_rejects_what_is_not_a_solved_pass():
