@@ -220,47 +220,51 @@ class SlabwiseReference:
 
     ``reference``: pieces (t0, t1, mesh, u) contiguous in time; consecutive pieces on
     one mesh (the same object) form a slab.  ``operator(mesh)`` returns that mesh's
-    free-node matrix and free nodes, (A, free); it is called once per distinct mesh.
-    With one mesh throughout this is :class:`SpaceTimeReference`."""
+    free-node matrix and free nodes, (A, free).  Only one slab's matrix is held at a
+    time: ``distances(runs)`` measures several functions slab by slab, calling
+    ``operator`` once per slab (``operator_calls``).  With one mesh throughout this is
+    :class:`SpaceTimeReference`."""
 
     def __init__(self, reference, operator, *, rank_rtol: float = RANK_RTOL):
-        _contiguous("reference", reference)
-        slabs: list = []
-        for pc in reference:
-            if slabs and slabs[-1][-1][2] is pc[2]:
-                slabs[-1].append(pc)
-            else:
-                slabs.append([pc])
-        ops: dict = {}
-        self.slabs = []
-        for slab in slabs:
-            mesh = slab[0][2]
-            if id(mesh) not in ops:
-                ops[id(mesh)] = operator(mesh)
-            A, free = ops[id(mesh)]
-            self.slabs.append(SpaceTimeReference(slab, A, free, rank_rtol=rank_rtol))
         self.edges = _contiguous("reference", reference)
+        if not (np.isfinite(rank_rtol) and 0.0 <= rank_rtol < 1.0):
+            raise ValueError(f"rank_rtol={rank_rtol!r} must be in [0, 1)")
+        self.slabs: list = []
+        for pc in reference:
+            if self.slabs and self.slabs[-1][-1][2] is pc[2]:
+                self.slabs[-1].append(pc)
+            else:
+                self.slabs.append([pc])
+        self.operator, self.rank_rtol = operator, float(rank_rtol)
+        self.operator_calls = 0
 
-    @property
-    def matvecs(self) -> int:
-        return sum(r.matvecs for r in self.slabs)
+    def distances(self, runs) -> np.ndarray:
+        """The distance of each run (a list of pieces covering the reference's time
+        interval) to the reference."""
+        tol = 1e-12 * max(abs(self.edges[-1]), 1e-300)
+        for pieces in runs:
+            ta = _contiguous("pieces", pieces)
+            if abs(ta[0] - self.edges[0]) > tol or abs(ta[-1] - self.edges[-1]) > tol:
+                raise ValueError(f"time intervals differ: [{ta[0]}, {ta[-1]}] vs "
+                                 f"[{self.edges[0]}, {self.edges[-1]}]")
+        total = np.zeros(len(runs))
+        for slab in self.slabs:
+            A, free = self.operator(slab[0][2])
+            self.operator_calls += 1
+            ref = SpaceTimeReference(slab, A, free, rank_rtol=self.rank_rtol)
+            a, b = ref.edges[0], ref.edges[-1]
+            for k, pieces in enumerate(runs):
+                # u's pieces on (a, b), cut at its ends (an overlap below tol is rounding)
+                within = [(max(t0, a), min(t1, b), mesh, u) for t0, t1, mesh, u in pieces
+                          if min(t1, b) - max(t0, a) > tol]
+                total[k] += float(_distances(within, [ref])[0]) ** 2
+            del A, free, ref
+        return np.sqrt(total)
 
     def distance(self, pieces) -> float:
         """(Σ_slabs ‖I_j u − u_ref‖²_{L²(slab j; a_j)})^{1/2}; u must cover the
         reference's time interval."""
-        ta = _contiguous("pieces", pieces)
-        tol = 1e-12 * max(abs(ta[-1]), abs(self.edges[-1]), 1e-300)
-        if abs(ta[0] - self.edges[0]) > tol or abs(ta[-1] - self.edges[-1]) > tol:
-            raise ValueError(f"time intervals differ: [{ta[0]}, {ta[-1]}] vs "
-                             f"[{self.edges[0]}, {self.edges[-1]}]")
-        total = 0.0
-        for ref in self.slabs:
-            a, b = ref.edges[0], ref.edges[-1]
-            # u's pieces on (a, b), cut at its ends (an overlap below tol is rounding)
-            within = [(max(t0, a), min(t1, b), mesh, u) for t0, t1, mesh, u in pieces
-                      if min(t1, b) - max(t0, a) > tol]
-            total += float(_distances(within, [ref])[0]) ** 2
-        return float(np.sqrt(total))
+        return float(self.distances([pieces])[0])
 
 
 def _distances(pieces, references) -> np.ndarray:
