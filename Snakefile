@@ -81,6 +81,8 @@ rule all:
         rules.para_reference_check.output,
         rules.ex5_uniform_cause.output,
         expand(rules.para_time_split.output, problem=PARA["time_split"]["problems"]),
+        expand(rules.para_self_reference.output,
+               problem=PARA["self_reference"]["problems"]),
         expand(rules.thin_demo.output, kind=["obstacle", "friction"]),
         rules.results_page.output,
     default_target: True

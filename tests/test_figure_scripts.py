@@ -838,6 +838,35 @@ def test_rate_table_shows_a_tier_from_its_partial_tables(tmp_path):
                    tiers={"big": parts})
 
 
+def test_self_reference_page_measures_the_passes_against_the_last(tmp_path):
+    """Algorithm C's passes before the last against the reference run and against the last
+    pass: every such pass has a finite distance to the last, the last none; the page fits
+    the three rates through the passes it names; too few passes for a rate are refused."""
+    page, solve = script("para_self_reference"), script("para_solve")
+    quad, data, T = {}, {"s": 0.5, "u0": 2.0}, 0.3
+    ref = tmp_path / "ref.npz"
+    solve.main("ex4-u2", "reference", "L3", "ex4", data, 2.0, T, 0.5, 1e-10, quad,
+               tmp_path / "ref.csv", ref)
+    ref_error = tmp_path / "ref-error.csv"
+    pd.DataFrame({"reference_error": [0.01]}).to_csv(ref_error, index=False)
+    csv, md = tmp_path / "self.csv", tmp_path / "self.md"
+    args = ("ex4-u2", "ex4", data, T, 0.5, 1, 1.0)
+    page.main(*args, 3000, 4, 1e-10, quad, ref, ref_error, csv, md)
+    df = pd.read_csv(csv)
+    assert df["pass"].tolist() == list(range(len(df))) and len(df) >= 3
+    assert np.all(np.isfinite(df.error_vs_last.iloc[:-1])) and np.isnan(df.error_vs_last.iloc[-1])
+    assert np.all(df.error_vs_last.iloc[:-1] > 0) and np.all(df.error_uncertainty.isna())
+    text = md.read_text()
+    before = df.iloc[:-1]
+    own = np.polyfit(np.log(before.spacetime_dofs), np.log(before.error_vs_last), 1)[0]
+    assert re.search(rf"the last pass \([\d,]+ space-time DOFs\), every pass\s*\|\s*"
+                     rf"{own:.3f}\s*\|", text), text
+    assert text.count("| 0, 1") == 3 and "the paper's adaptive rate is -0.319" in text
+    with pytest.raises(ValueError, match=r"max_spacetime_dofs=100 gives 2 passes"):
+        page.main(*args, 100, 4, 1e-10, quad, ref, ref_error, csv, md)
+    assert pd.read_csv(csv).equals(df)                        # nothing written
+
+
 def test_time_split_refuses_a_graded_error_measured_against_another_family(tmp_path):
     """The graded run of an errors table is solved again and measured against the job's
     reference: the table's own error passes and becomes the m = 1 row; a table measured

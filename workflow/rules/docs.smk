@@ -30,12 +30,15 @@ rule results_page:
         rules.para_reference_check.output.md,
         rules.ex5_uniform_cause.output.md,
         expand(rules.para_time_split.output.md, problem=PARA["time_split"]["problems"]),
+        expand(rules.para_self_reference.output.md,
+               problem=PARA["self_reference"]["problems"]),
         expand(rules.para_passes.output, problem=PARA_PROBLEMS),
         rules.benchmark_assembly.output.md,
         rules.bad_inputs.output.md,
     params:
         time_split=PARA["time_split"]["problems"],
         para=PARA_PROBLEMS,
+        self_reference=PARA["self_reference"]["problems"],
     output:
         md=report(
             f"{OUT}/RESULTS.md",

@@ -498,6 +498,49 @@ rule para_time_split:
         "../scripts/para_time_split.py"
 
 
+# Algorithm C's passes measured against its own last pass (as the paper measures against its
+# finest adaptive mesh) beside the family's limit: the same passes, only the reference changes
+rule para_self_reference:
+    input:
+        ref=para_reference,
+        operator=para_reference_operator,
+        coarser=para_reference_coarser,
+        family=rules.para_reference_family.output.pkl,
+        ref_error=rules.para_reference_error.output.csv,
+    output:
+        md=report(
+            f"{OUT}/{{problem}}-self-reference.md",
+            caption="../../report/captions/self-reference.rst",
+            category="Across examples",
+            subcategory="Examples 4 and 5",
+        ),
+        csv=f"{RES}/para/{{problem}}/adaptive/self-reference.csv",
+    wildcard_constraints:
+        problem="|".join(PARA_PROBLEMS),
+    params:
+        example=para_example,
+        data=para_data,
+        T=PARA["T"],
+        theta=PARA["adaptive"]["theta"],
+        start_level=PARA["adaptive"]["start_level"],
+        c_tau=PARA["adaptive"]["c_tau"],
+        max_spacetime_dofs=PARA["self_reference"]["max_spacetime_dofs"],
+        max_iterations=PARA["adaptive"]["max_iterations"],
+        operator=PARA["adaptive"]["operator"],
+        tol=SOLVER["tol"],
+        quadrature=PARA_QUADRATURE,
+    log:
+        f"{RES}/logs/para/{{problem}}_self_reference.log",
+    benchmark:
+        f"{RES}/benchmarks/para/{{problem}}_self_reference.tsv"
+    priority: PRIORITY["parabolic"]
+    threads: JOB_THREADS
+    conda:
+        ENV
+    script:
+        "../scripts/para_self_reference.py"
+
+
 # `snakemake --cores 2 results/para/<problem>/reference-committed.txt`: compute the reference
 # run of one problem and replace its committed copy (parabolic.reference.committed; the input
 # files, not outputs of this rule: a fresh clone uses the copies as they are); add

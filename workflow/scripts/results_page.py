@@ -9,7 +9,8 @@ from fracfem_workflow.io import atomic_path
 
 # (heading, intro, figures, tables): figures and tables by file name in the figure root (a
 # name with "{problem}" stands for one file per problem of parabolic.time_split, one with
-# "{para}" for one file per parabolic problem).
+# "{para}" for one file per parabolic problem, one with "{self}" for one file per problem of
+# parabolic.self_reference).
 SECTIONS = [
     ("Example 1: the exact solution (s = 0.5 and the configured orders)",
      "Energy error ‖u − u_h‖ = ((f,u) − (f,u_h))^½ against the exact energy, on uniform, "
@@ -49,7 +50,8 @@ SECTIONS = [
       "fig15-ex5-error.png", "extra-parabolic-error-vs-time.png",
       "extra-{para}-algorithm-c.png"],
      ["parabolic-runs.md", "{para}-algorithm-c.md", "ex5-free-boundary.md",
-      "ex5-uniform-rate.md", "{problem}-time-split.md", "parabolic-reference-check.md"]),
+      "ex5-uniform-rate.md", "{problem}-time-split.md", "{self}-self-reference.md",
+      "parabolic-reference-check.md"]),
     ("Assembly benchmark",
      "Example 1, s = 0.5, uniform disks, warm numba cache; `floor_s` is one kernel "
      "evaluation per unordered element pair in the same process.",
@@ -68,41 +70,47 @@ TITLE = ("# Results\n\nEvery figure and table of the last `snakemake` run in thi
          "benchmark_compressed`).\n")
 
 
-def expand(entry, problems, para):
+def expand(entry, problems, para, self_reference=()):
     """The file names an entry of SECTIONS stands for: "{problem}" once per problem of
-    ``problems``, "{para}" once per problem of ``para``."""
+    ``problems``, "{para}" once per problem of ``para``, "{self}" once per problem of
+    ``self_reference``."""
     if "{problem}" in entry:
         return [entry.format(problem=p) for p in problems]
     if "{para}" in entry:
         return [entry.format(para=p) for p in para]
+    if "{self}" in entry:
+        return [entry.format(self=p) for p in self_reference]
     return [entry]
 
 
-def render(root, problems=(), para=()):
+def render(root, problems=(), para=(), self_reference=()):
     """The page's text from the files in `root`; a missing file is an error.
     problems: those of the names with "{problem}" (parabolic.time_split), para: those of
-    the names with "{para}" (every parabolic problem), in order."""
+    the names with "{para}" (every parabolic problem), self_reference: those of the names
+    with "{self}" (parabolic.self_reference), in order."""
     root = Path(root)
     parts = [TITLE]
     for heading, intro, figures, tables in SECTIONS:
         parts.append(f"\n## {heading}\n\n{intro}\n")
-        for name in (n for entry in figures for n in expand(entry, problems, para)):
+        for name in (n for entry in figures
+                     for n in expand(entry, problems, para, self_reference)):
             if not (root / name).exists():
                 raise FileNotFoundError(f"{root / name} is missing: run its rule first")
             parts.append(f"\n![{name}]({name})\n")
         for entry in tables:
-            for name in expand(entry, problems, para):
+            for name in expand(entry, problems, para, self_reference):
                 text = (root / name).read_text().strip()
                 parts.append(f"\n### `{name}`\n\n{text}\n")
     return "".join(parts)
 
 
-def main(root, out, problems=(), para=()):
-    text = render(root, problems, para)
+def main(root, out, problems=(), para=(), self_reference=()):
+    text = render(root, problems, para, self_reference)
     with atomic_path(out) as tmp:
         tmp.write_text(text)
 
 
 if __name__ == "__main__":
     main(Path(snakemake.output.md).parent, snakemake.output.md,  # noqa: F821
-         snakemake.params.time_split, snakemake.params.para)  # noqa: F821
+         snakemake.params.time_split, snakemake.params.para,  # noqa: F821
+         snakemake.params.self_reference)  # noqa: F821

@@ -262,6 +262,14 @@ GROUPS = [
                      "seconds to solve it again with m times its steps and measure it (m = 1 "
                      "too: checked against the errors table's error and uncertainty)",
     }),
+    ("Algorithm C's passes against its last pass (`<problem>-self-reference.md`)", False, {
+        "measured against": "the reference the passes before the last are measured "
+                            "against, and which of them the rate is fitted through",
+        "passes in the fit": "the passes the rate is fitted through",
+        "error_vs_last": "distance of the pass to Algorithm C's last pass in L²(0,T; Hˢ), "
+                         "each slab of the last pass in its own mesh's a-norm",
+        "local slope (last)": "`local slope` of `error_vs_last`",
+    }),
     ("Stability (`stability.md`, `stability-vi.md`)", False, {
         "case": "what was run",
         "status": "`ok`, or `refused:` and the error the library raised",
