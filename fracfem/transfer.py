@@ -254,10 +254,12 @@ class SlabwiseReference:
             ref = SpaceTimeReference(slab, A, free, rank_rtol=self.rank_rtol)
             a, b = ref.edges[0], ref.edges[-1]
             for k, pieces in enumerate(runs):
-                # u's pieces on (a, b), cut at its ends (an overlap below tol is rounding)
-                within = [(max(t0, a), min(t1, b), mesh, u) for t0, t1, mesh, u in pieces
-                          if min(t1, b) - max(t0, a) > tol]
-                total[k] += float(_distances(within, [ref])[0]) ** 2
+                # u's pieces that overlap (a, b), cut there; the first starts at a and the
+                # last ends at b exactly, whatever the rounding of u's own time edges
+                within = [[max(t0, a), min(t1, b), mesh, u] for t0, t1, mesh, u in pieces
+                          if min(t1, b) > max(t0, a)]
+                within[0][0], within[-1][1] = a, b
+                total[k] += float(_distances([tuple(w) for w in within], [ref])[0]) ** 2
             del A, free, ref
         return np.sqrt(total)
 

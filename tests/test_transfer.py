@@ -274,3 +274,31 @@ def test_extrapolated_distance_uses_the_members_it_keeps():
     # the estimate through the three before has e² < 0: nothing confirms this one
     out = extrapolated_distance([0.9, 0.5, 0.1, 0.1], [0.5, 0.25, 0.125])
     assert np.isfinite(out["error"]) and out["uncertainty"] == np.inf
+
+
+def test_slabwise_reference_takes_time_edges_rounded_near_a_slab_end():
+    """A run whose time edges miss the reference's slab ends by round-off (5e-13 of T = 1,
+    at a slab ending at 1e-4) is measured as the run with exact edges, not refused; a piece
+    shorter than that which straddles a slab end counts for its length."""
+    from skfem import MeshTri
+
+    from fracfem import laplace
+    from fracfem.transfer import SlabwiseReference
+
+    m = disk_uniform(1)
+    d = laplace.discretise(m, 0.5, 0.0)
+    twin = MeshTri(m.p.copy(), m.t.copy())              # another slab's mesh object
+    U = list(np.random.default_rng(0).standard_normal((4, m.p.shape[1])))
+    ref = SlabwiseReference([(0.0, 1e-4, m, U[0]), (1e-4, 2e-4, twin, U[1]),
+                             (2e-4, 1.0, m, U[0])], lambda mesh: (d.A, np.asarray(d.free)))
+
+    def run(e1, e2=None):
+        edges = [0.0, e1] + ([] if e2 is None else [e2]) + [2e-4, 1.0]
+        return [(a, b, m, U[2 + k % 2]) for k, (a, b) in enumerate(zip(edges, edges[1:]))]
+
+    exact = ref.distance(run(1e-4))
+    assert ref.distance(run(1e-4 + 5e-13)) == pytest.approx(exact, rel=1e-7)
+    # a 9e-13 piece across the slab end 1e-4, its neighbours as exact's pieces
+    sliver = [(0.0, 1e-4 - 4e-13, m, U[2]), (1e-4 - 4e-13, 1e-4 + 5e-13, m, U[1]),
+              (1e-4 + 5e-13, 2e-4, m, U[3]), (2e-4, 1.0, m, U[2])]
+    assert ref.distance(sliver) == pytest.approx(exact, rel=1e-7)
