@@ -858,13 +858,17 @@ def test_self_reference_page_measures_the_passes_against_the_last(tmp_path):
     assert np.all(df.error_vs_last.iloc[:-1] > 0) and np.all(df.error_uncertainty.isna())
     text = md.read_text()
     before = df.iloc[:-1]
-    own = np.polyfit(np.log(before.spacetime_dofs), np.log(before.error_vs_last), 1)[0]
-    assert re.search(rf"the last pass \([\d,]+ space-time DOFs\), every pass\s*\|\s*"
-                     rf"{own:.3f}\s*\|", text), text
-    assert text.count("| 0, 1") == 3 and "the paper's adaptive rate is -0.319" in text
-    with pytest.raises(ValueError, match=r"max_spacetime_dofs=100 gives 2 passes"):
+    for column, row in [("error_vs_last", "slab by slab on its own meshes"),
+                        ("error_vs_last_on_reference", "on that run's mesh"),
+                        ("error_vs_reference", "the family's finest run alone")]:
+        rate = np.polyfit(np.log(before.spacetime_dofs), np.log(before[column]), 1)[0]
+        assert re.search(rf"{re.escape(row)}[^|]*every pass\s*\|\s*{rate:.3f}\s*\|", text), \
+            (column, text)
+    assert text.count("| 0, 1") == 5 and "the paper's adaptive rate is -0.319" in text
+    with pytest.raises(ValueError, match=r"max_spacetime_dofs=100 gives 2 passes \(Algorithm "
+                                         r"C stopped: callback\)"):
         page.main(*args, 100, 4, 1e-10, quad, ref, ref_error, csv, md)
-    assert pd.read_csv(csv).equals(df)                        # nothing written
+    assert pd.read_csv(csv).equals(df) and md.read_text() == text   # nothing written
 
 
 def test_time_split_refuses_a_graded_error_measured_against_another_family(tmp_path):

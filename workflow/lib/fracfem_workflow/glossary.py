@@ -268,6 +268,9 @@ GROUPS = [
         "passes in the fit": "the passes the rate is fitted through",
         "error_vs_last": "distance of the pass to Algorithm C's last pass in L²(0,T; Hˢ), "
                          "each slab of the last pass in its own mesh's a-norm",
+        "error_vs_last_on_reference": "distance of the pass to Algorithm C's last pass, "
+                                      "both interpolated onto the reference run's mesh and "
+                                      "measured in its a-norm (as `error_vs_reference`)",
         "local slope (last)": "`local slope` of `error_vs_last`",
     }),
     ("Stability (`stability.md`, `stability-vi.md`)", False, {
