@@ -1,8 +1,8 @@
 """Algorithm C's passes measured against its own last pass, as the paper measures its
 adaptive runs against its finest adaptive mesh, beside the same passes measured against
-the limit of the reference's family (every other error here).  One change, the
-reference: what it does to the fitted rate is the part of a rate that comes from where
-the error is measured, not from the runs.
+the limit of the reference's family (every other error here).  The same passes, fitted
+alike: what changing the reference does to the fitted rate is the part of a rate that
+comes from where the error is measured, not from the runs.
 
 The last pass's space mesh changes from slab to slab: a pass is measured slab by slab,
 interpolated onto that slab's mesh and in its a-norm (fracfem.transfer.SlabwiseReference),
@@ -35,7 +35,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
     reference, s = stored_family(ref, list(coarser), quad, ref_operator, family)
-    passes, rows, stops = [], [], []
+    passes, rows = [], []
 
     def record(rec):
         rows.append({"problem": problem, "pass": rec.iteration, "spacetime_dofs": rec.dofs,
@@ -47,10 +47,11 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         rec.pieces = None
         return rec.dofs >= max_spacetime_dofs
 
-    recs = ff.algorithm_c(lambda coarse: ex.problem(coarse, quad, operator=operator),
-                   ff.disk_uniform(start_level), ex.initial_value, T=T, theta=theta,
-                   iterations=max_iterations, c_tau=c_tau, marking="maximum", solver="pdas",
-                   callback=record, keep_steps=True, solver_options={"tol": tol})
+    recs = ff.algorithm_c(
+        lambda coarse: ex.problem(coarse, quad, operator=operator),
+        ff.disk_uniform(start_level), ex.initial_value, T=T, theta=theta,
+        iterations=max_iterations, c_tau=c_tau, marking="maximum", solver="pdas",
+        callback=record, keep_steps=True, solver_options={"tol": tol})
     stop = recs[-1].stop
     if len(passes) < 3:
         raise ValueError(f"max_spacetime_dofs={max_spacetime_dofs!r} gives {len(passes)} "
