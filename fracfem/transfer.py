@@ -16,7 +16,7 @@ from .assembly import mesh_arrays
 from .meshes import validates
 
 __all__ = ["locate", "interpolation_matrix", "interpolate", "interpolate_at", "transfer",
-           "space_time_distance", "SpaceTimeReference", "SlabwiseReference",
+           "pieces_on", "space_time_distance", "SpaceTimeReference", "SlabwiseReference",
            "ReferenceFamily", "extrapolated_distance"]
 
 
@@ -323,6 +323,22 @@ def _distances(pieces, references) -> np.ndarray:
     return np.sqrt(np.maximum(total, 0.0))
 
 
+def pieces_on(pieces, mesh) -> list:
+    """Pieces (t0, t1, m, u) as pieces on ``mesh``: each u nodally interpolated onto it
+    (zero outside m; one interpolation matrix per distinct m), u as it is where m is
+    ``mesh``."""
+    maps: dict = {}
+    moved = []
+    for t0, t1, m, u in pieces:
+        u = np.asarray(u, dtype=float)
+        if m is not mesh:
+            if id(m) not in maps:
+                maps[id(m)] = interpolation_matrix(m, mesh.p)
+            u = maps[id(m)] @ u
+        moved.append((t0, t1, mesh, u))
+    return moved
+
+
 class ReferenceFamily:
     """Runs u₁, …, u_K of one family converging to the unknown u (coarsest first), to
     measure another function's distance to u rather than to the finest run.
@@ -344,16 +360,7 @@ class ReferenceFamily:
         for pcs in members:
             self.meshes.append(list({id(pc[2]): pc[2] for pc in pcs}.values()))
             _contiguous("member", pcs)
-            maps: dict = {}
-            moved = []
-            for t0, t1, mesh, u in pcs:
-                if mesh is fine:
-                    moved.append((t0, t1, fine, np.asarray(u, dtype=float)))
-                    continue
-                if id(mesh) not in maps:
-                    maps[id(mesh)] = interpolation_matrix(mesh, fine.p)
-                moved.append((t0, t1, fine, maps[id(mesh)] @ np.asarray(u, dtype=float)))
-            on_fine.append(moved)
+            on_fine.append(pieces_on(pcs, fine))
         self.references = [SpaceTimeReference(pcs, A_ref, free_ref, rank_rtol=rank_rtol)
                            for pcs in on_fine]
         self.steps = np.array([self.references[k + 1].distance(on_fine[k])

@@ -538,6 +538,16 @@ def _ex4_run():
     return recs, calls
 
 
+def _ex4_reference():
+    """(make, problem, pieces): a run with 40 uniform steps on the fine mesh of the last
+    pass's last slab, a reference of one mesh for _ex4_run's passes."""
+    make = _ex4_problem()
+    finest = _ex4_run()[0][-1].slabs[-1].coarse
+    reference = spacetime_adaptive.solve_slabs(
+        make, [spacetime_adaptive.Slab(0.0, 1.0, finest, n_steps=40)], 2.0, T=1.0).pieces
+    return make, make(finest), reference
+
+
 def test_algorithm_c_reduces_the_estimator():
     recs, _ = _ex4_run()
     eta = np.array([r.eta for r in recs])
@@ -625,11 +635,7 @@ def test_space_time_reference_products_with_a_basis_match_one_product_per_piece(
     fewer products (measured: relative differences ≤ 2e-15; with 16 times the steps
     10, 22, 34 products for 48, 96, 144 pieces)."""
     recs = _ex4_run()[0]
-    make = _ex4_problem()
-    finest = recs[-1].slabs[-1].coarse
-    prob = make(finest)
-    reference = spacetime_adaptive.solve_slabs(
-        make, [spacetime_adaptive.Slab(0.0, 1.0, finest, n_steps=40)], 2.0, T=1.0).pieces
+    make, prob, reference = _ex4_reference()
     runs = {m: [spacetime_adaptive.solve_slabs(make, rec.slabs, 2.0, T=1.0,
                                                time_refinement=m).pieces for rec in recs]
             for m in (1, 16)}
@@ -657,11 +663,7 @@ def test_slabwise_reference_measures_each_slab_in_its_own_mesh():
     two slabs at a time inside u's steps; a pass shifted by c·w (w a nodal vector of
     each mesh) is at c (Σ_j |slab j| wᵀA_j w)^{1/2}; the reference is at 0 from itself."""
     recs = _ex4_run()[0]
-    make = _ex4_problem()
-    finest = recs[-1].slabs[-1].coarse
-    prob = make(finest)
-    reference = spacetime_adaptive.solve_slabs(
-        make, [spacetime_adaptive.Slab(0.0, 1.0, finest, n_steps=40)], 2.0, T=1.0).pieces
+    make, prob, reference = _ex4_reference()
     passes = [spacetime_adaptive.solve_slabs(make, rec.slabs, 2.0, T=1.0).pieces
               for rec in recs]
     one = SpaceTimeReference(reference, prob.disc.A, prob.disc.free)

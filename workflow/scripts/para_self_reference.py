@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 import fracfem as ff
-from fracfem.transfer import SlabwiseReference, SpaceTimeReference, interpolation_matrix
+from fracfem.transfer import SlabwiseReference, SpaceTimeReference, pieces_on
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.report import (fit_mask, local_slopes, masked_rate, paper_rate,
@@ -91,12 +91,7 @@ def on_mesh_of(reference, pieces):
     ReferenceFamily: its finest member's; a SpaceTimeReference: its own), in its a-norm,
     as ReferenceFamily holds its coarser members."""
     fine = reference.references[-1] if hasattr(reference, "references") else reference
-    maps, moved = {}, []
-    for t0, t1, mesh, u in pieces:
-        if id(mesh) not in maps:
-            maps[id(mesh)] = interpolation_matrix(mesh, fine.mesh.p)
-        moved.append((t0, t1, fine.mesh, maps[id(mesh)] @ np.asarray(u, dtype=float)))
-    return SpaceTimeReference(moved, fine.A, fine.free)
+    return SpaceTimeReference(pieces_on(pieces, fine.mesh), fine.A, fine.free)
 
 
 def report(df, paper):
