@@ -172,3 +172,31 @@ def test_a_rule_left_out_of_a_later_run_keeps_its_earlier_measurement(tmp_path):
     assert "# rules measured in an earlier run, kept: adaptive" in second
     assert "never_run" in second.split("kept:")[0]          # still without a benchmark
     assert pr.previous_measurements(second)["adaptive"].max_rss == 9000.0
+
+
+def test_keep_larger_keeps_an_earlier_runs_larger_maxima_and_only_those(tmp_path):
+    """A run whose 'solve' jobs were all small after one with a large job: by default the
+    new measurement replaces the old; with keep_larger the rule keeps the earlier maxima
+    (marked, and read back from the block), while a rule that grew keeps its new ones."""
+    bench(tmp_path / "b1" / "ex1" / "uniform_s0.5_L5.tsv", 2600.0, 2500.0)
+    bench(tmp_path / "b1" / "ex1" / "adaptive_s0.5.tsv", 100.0, 800.0)
+    recs1, _ = pr.compute(RULES, tmp_path / "b1", **MARGINS)
+    earlier = pr.previous_measurements(pr.render_block(recs1, RULES, source="1", margins="m"))
+    bench(tmp_path / "b2" / "ex1" / "uniform_s0.5_L3.tsv", 120.0, 480.0)
+    bench(tmp_path / "b2" / "ex1" / "adaptive_s0.5.tsv", 200.0, 1600.0)
+    recs2, _ = pr.compute(RULES, tmp_path / "b2", **MARGINS)
+
+    plain = pr.with_earlier(recs2, RULES, earlier, **MARGINS)
+    assert plain["solve"] == recs2["solve"] and plain["adaptive"] == recs2["adaptive"]
+    larger = pr.with_earlier(recs2, RULES, earlier, keep_larger=True, **MARGINS)
+    assert (larger["solve"].mem_mb, larger["solve"].runtime) == (
+        recs1["solve"].mem_mb, recs1["solve"].runtime)
+    assert larger["solve"].mem_mb > recs2["solve"].mem_mb
+    assert larger["adaptive"] == recs2["adaptive"]            # grew: its own maxima
+    block = pr.render_block(larger, RULES, source="2", margins="m")
+    assert "(--keep-larger): solve" in block
+    assert "this run's and an earlier run's, the larger" in block
+    back = pr.previous_measurements(block)
+    assert (back["solve"].max_s, back["solve"].max_rss) == (2600.0, 2500.0)
+    assert (back["adaptive"].max_s, back["adaptive"].max_rss) == (200.0, 1600.0)
+    assert len(back["solve"].files) == 1          # this run's jobs, not a sum over runs

@@ -20,8 +20,12 @@ maximum over its jobs (all wildcard values) becomes
               (cpu_time / s) gets 1.
 
 Rules without any benchmark file get conservative defaults and are listed as such
-(in the output and in the profile).  Only the block between the two marker lines of
-the profile is rewritten; everything else (account, partition, executor settings)
+(in the output and in the profile).  A rule that did not run keeps the measurement
+recorded in the profile it replaces ("an earlier run"); with --keep-larger a rule that
+did run keeps the earlier maxima where they are larger, so that a run that left out a
+rule's largest jobs (the reference runs of para_reference_solve, made only by
+para_reference_commit) does not lower its limits.  Only the block between the two
+marker lines of the profile is rewritten; everything else (account, partition, executor settings)
 stays as it is.  --check exits 1 if the profile is not what the benchmarks give.
 """
 import argparse
@@ -64,6 +68,7 @@ class Measured:
     max_load: float = 0.0        # cpu_time / s, the cores a job kept busy on average
     min_s: float = math.inf
     kept: bool = False           # read back from the profile: no benchmark file this time
+    merged: bool = False         # this run's maxima and an earlier run's, the larger kept
 
 
 @dataclass
@@ -211,12 +216,42 @@ def previous_measurements(text):
     return out
 
 
+def larger_of(now, earlier):
+    """This run's measurement of a rule with an earlier one's maxima where they are larger
+    (``now`` unchanged when none is); its jobs are this run's."""
+    if earlier.max_s <= now.max_s and earlier.max_rss <= now.max_rss:
+        return now
+    return Measured(files=now.files, max_s=max(now.max_s, earlier.max_s),
+                    max_rss=max(now.max_rss, earlier.max_rss),
+                    max_load=max(now.max_load, earlier.max_load), min_s=now.min_s,
+                    merged=True)
+
+
+def with_earlier(recs, rules, earlier, *, keep_larger=False, fit_threads=False, **margins):
+    """{rule: Recommendation} with the profile's earlier measurements ({rule: Measured},
+    previous_measurements): a rule without a benchmark file this time keeps its earlier
+    one; with ``keep_larger`` a measured rule also keeps the earlier maxima where they
+    are larger (larger_of)."""
+    out = dict(recs)
+    for r in rules:
+        now, before = recs[r.name].measured, earlier.get(r.name)
+        if before is None:
+            continue
+        if now is None:
+            out[r.name] = recommend(r, before, fit_threads=False, **margins)
+        elif keep_larger and larger_of(now, before) is not now:
+            out[r.name] = recommend(r, larger_of(now, before), fit_threads=fit_threads,
+                                    **margins)
+    return out
+
+
 def render_block(recs, rules, *, source, margins):
     """The generated YAML block (markers included) for {rule: Recommendation}."""
     names = [r.name for r in rules if r.name in recs]
     local = {r.name for r in rules if r.local}
     missing = [n for n in names if recs[n].measured is None]
     kept = [n for n in names if recs[n].measured is not None and recs[n].measured.kept]
+    merged = [n for n in names if recs[n].measured is not None and recs[n].measured.merged]
     lines = [
         BEGIN,
         "# (do not edit by hand: rerun the script after a pipeline run; see docs/cluster.md)",
@@ -225,6 +260,8 @@ def render_block(recs, rules, *, source, margins):
         "# rules without a benchmark file (conservative defaults): "
         + (", ".join(missing) if missing else "none"),
         "# rules measured in an earlier run, kept: " + (", ".join(kept) if kept else "none"),
+    ] + ([f"# rules with an earlier run's larger maxima (--keep-larger): {', '.join(merged)}"]
+         if merged else []) + [
         "set-threads:",
     ]
     lines += [f"  {n}: {recs[n].threads}" for n in names]
@@ -239,6 +276,8 @@ def render_block(recs, rules, *, source, margins):
                     f"cpu_time/s <= {m.max_load:.2f}")
             if m.kept:
                 note += " (an earlier run)"
+            elif m.merged:
+                note += " (this run's and an earlier run's, the larger)"
         if n in local:
             note += "; a localrule (runs beside Snakemake, not submitted)"
         lines += [f"  # {n}: {note}", f"  {n}:", f"    mem_mb: {r.mem_mb}",
@@ -344,6 +383,9 @@ def main(argv=None):
     ap.add_argument("--check", action="store_true",
                     help="do not write; exit 1 if the profile differs")
     ap.add_argument("--fit-threads", action="store_true")
+    ap.add_argument("--keep-larger", action="store_true",
+                    help="a rule measured in the profile's earlier run keeps those maxima "
+                         "where they are larger than this run's")
     ap.add_argument("--mem-factor", type=float, default=MEM_FACTOR)
     ap.add_argument("--mem-overhead", type=int, default=MEM_OVERHEAD)
     ap.add_argument("--mem-floor", type=int, default=MEM_FLOOR)
@@ -365,9 +407,8 @@ def main(argv=None):
     recs, unmatched = compute(rules, bench, fit_threads=a.fit_threads, **margins)
     profile = Path(a.profile)
     earlier = previous_measurements(profile.read_text()) if profile.exists() else {}
-    for r in rules:           # not run this time: keep an earlier measurement
-        if recs[r.name].measured is None and r.name in earlier:
-            recs[r.name] = recommend(r, earlier[r.name], fit_threads=False, **margins)
+    recs = with_earlier(recs, rules, earlier, keep_larger=a.keep_larger,
+                        fit_threads=a.fit_threads, **margins)
     block = render_block(recs, rules, source=a.source_note or str(bench),
                          margins=margins_text(a))
 
