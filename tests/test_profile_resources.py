@@ -200,3 +200,26 @@ def test_keep_larger_keeps_an_earlier_runs_larger_maxima_and_only_those(tmp_path
     assert (back["solve"].max_s, back["solve"].max_rss) == (2600.0, 2500.0)
     assert (back["adaptive"].max_s, back["adaptive"].max_rss) == (200.0, 1600.0)
     assert len(back["solve"].files) == 1          # this run's jobs, not a sum over runs
+
+
+def test_keep_larger_takes_each_maximum_from_its_own_run_and_is_idempotent(tmp_path):
+    """Earlier run longer but leaner than this one: the merge keeps the earlier time and
+    this run's memory; a profile regenerated from the same benchmarks is the same
+    profile, although the block records its maxima rounded (0.1 s, 1 MB)."""
+    bench(tmp_path / "b1" / "ex1" / "uniform_s0.5_L5.tsv", 2600.0, 900.0)
+    recs1, _ = pr.compute(RULES, tmp_path / "b1", **MARGINS)
+    earlier = pr.previous_measurements(pr.render_block(recs1, RULES, source="1", margins="m"))
+    bench(tmp_path / "b2" / "ex1" / "uniform_s0.5_L3.tsv", 120.0, 3000.0)
+    recs2, _ = pr.compute(RULES, tmp_path / "b2", **MARGINS)
+    mixed = pr.with_earlier(recs2, RULES, earlier, keep_larger=True, **MARGINS)["solve"]
+    assert (mixed.measured.max_s, mixed.measured.max_rss) == (2600.0, 3000.0)
+    assert mixed.runtime == recs1["solve"].runtime and mixed.mem_mb == recs2["solve"].mem_mb
+
+    bench(tmp_path / "b3" / "ex1" / "adaptive_s0.5.tsv", 1.37, 85.6)   # rounds up in the block
+    recs3, _ = pr.compute(RULES, tmp_path / "b3", **MARGINS)
+    blocks = [pr.render_block(recs3, RULES, source="3", margins="m")]
+    for _ in range(2):
+        again = pr.with_earlier(recs3, RULES, pr.previous_measurements(blocks[-1]),
+                                keep_larger=True, **MARGINS)
+        blocks.append(pr.render_block(again, RULES, source="3", margins="m"))
+    assert blocks[0] == blocks[1] == blocks[2]
