@@ -23,10 +23,10 @@ Rules without any benchmark file get conservative defaults and are listed as suc
 (in the output and in the profile).  A rule that did not run keeps the measurement
 recorded in the profile it replaces ("an earlier run"); with --keep-larger a rule that
 did run keeps the earlier maxima where they are larger, so that a run that left out a
-rule's largest jobs (the reference runs of para_reference_solve, made only by
+rule's largest jobs (the reference runs of para_reference_solve, asked for only by
 para_reference_commit) does not lower its limits.  Only the block between the two
-marker lines of the profile is rewritten; everything else (account, partition, executor settings)
-stays as it is.  --check exits 1 if the profile is not what the benchmarks give.
+marker lines of the profile is rewritten; everything else (account, partition,
+executor settings) stays as it is.  --check exits 1 if the profile is not what the benchmarks give.
 """
 import argparse
 import math
@@ -244,9 +244,10 @@ def with_earlier(recs, rules, earlier, *, keep_larger=False, fit_threads=False, 
             continue
         if now is None:
             out[r.name] = recommend(r, before, fit_threads=False, **margins)
-        elif keep_larger and larger_of(now, before) is not now:
-            out[r.name] = recommend(r, larger_of(now, before), fit_threads=fit_threads,
-                                    **margins)
+        elif keep_larger:
+            merged = larger_of(now, before)
+            if merged is not now:
+                out[r.name] = recommend(r, merged, fit_threads=fit_threads, **margins)
     return out
 
 
