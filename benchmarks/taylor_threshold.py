@@ -64,7 +64,7 @@ def near_row(name: str) -> dict:
                h_max=diam.max())
     for R in (8.0, 4.0):
         _, near = C.block_tree(tree, tree, C.DEFAULT_ETA, R)
-        row[f"near_nnz_R{R:g}"] = C._near_pattern(tree, near, t, len(p)).nnz
+        row[f"near_nnz_R{R:g}"] = len(C._near_pattern(tree, near, t, len(p))[1])
     row["near_ratio"] = row["near_nnz_R8"] / row["near_nnz_R4"]
     row["near_share_R8"] = row["near_nnz_R8"] / len(p) ** 2
     return row

@@ -472,25 +472,26 @@ def _csr_add(indptr, indices, data, i, j, v):  # pragma: no cover
 @njit(cache=True, parallel=True)
 def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, diam,
                area, mom, grad, qx, qw, lam, offsets, thresholds, taylor, s,
-               indptr, indices, nv, nchunks):  # pragma: no cover
+               indptr, indices, nv, data):  # pragma: no cover
     """Separated element pairs of the near blocks with the dense assembly's
     rules (:func:`fracfem._kernels.far_pairs`); touching pairs are skipped.
 
     Near blocks sorted by row cluster σ (near_ptr[i]:near_ptr[i+1] are the
     blocks of row near_rows[i]).  Each unordered pair once: blocks with σ < τ
     whole, σ = τ for T < T'.  The one-sided part X of a pair (T, T') goes to
-    entry (t[T, a], t[T', b]) of per-chunk copies of the CSR data (nchunks,
-    nnz), found through a column → position map of the three rows of T (the
-    pattern holds nodes(σ) × nodes(τ) of every near block); add the
-    transpose with :func:`symmetrize_csr`.  D (nchunks, nt, nq_total + 4) as
-    in far_pairs.
+    entry (t[T, a], t[T', b]) of per-chunk copies of the CSR data (``data``,
+    zeros of shape (nchunks, nnz), allocated by the caller so that it can
+    shrink them in place), found through a column → position map of the three
+    rows of T (the pattern holds nodes(σ) × nodes(τ) of every near block); add
+    the transpose with :func:`symmetrize_csr_inplace`.  Returns D (nchunks,
+    nt, nq_total + 4) as in far_pairs.
     """
     nt = t.shape[0]
     nlev = offsets.shape[0] - 1
     nqt = offsets[nlev]
     expo = -1.0 - s
     alpha = -2.0 - 2.0 * s
-    data = np.zeros((nchunks, indices.shape[0]))
+    nchunks = data.shape[0]
     D = np.zeros((nchunks, nt, nqt + 4))
     nrow = near_rows.shape[0]
     for c in prange(nchunks):
@@ -593,12 +594,13 @@ def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, 
                         for a in range(3):
                             for b in range(3):
                                 data[c, pos[a, t[T2, b]]] += X[a, b]
-    return data, D
+    return D
 
 
 @njit(cache=True, parallel=True)
 def symmetrize_csr(indptr, indices, data):  # pragma: no cover
-    """S + Sᵀ on a symmetric pattern with sorted indices."""
+    """S + Sᵀ on a symmetric pattern with sorted indices, into a new array
+    (the reference of :func:`symmetrize_csr_inplace`, which the assembly uses)."""
     n = indptr.shape[0] - 1
     out = np.empty_like(data)
     for i in prange(n):
@@ -614,6 +616,34 @@ def symmetrize_csr(indptr, indices, data):  # pragma: no cover
                     hi = mid
             out[k] = data[k] + data[lo]
     return out
+
+
+@njit(cache=True, parallel=True)
+def symmetrize_csr_inplace(indptr, indices, data):  # pragma: no cover
+    """data ← S + Sᵀ in place, on a symmetric pattern with sorted indices
+    (:func:`symmetrize_csr` without its second array).  The entry (i, j) of
+    the upper triangle is summed with (j, i) and written to both by row i's
+    iteration alone: no other row reads or writes (j, i) of a j > i."""
+    n = indptr.shape[0] - 1
+    for i in prange(n):
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            if j < i:
+                continue
+            if j == i:
+                data[k] = 2.0 * data[k]
+                continue
+            lo = indptr[j]
+            hi = indptr[j + 1] - 1
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if indices[mid] < i:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            v = data[k] + data[lo]
+            data[k] = v
+            data[lo] = v
 
 
 @njit(cache=True)

@@ -614,8 +614,11 @@ def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None,
     return out
 
 
-def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray, nv: int) -> sp.csr_matrix:
-    """Node pairs of the near blocks (structure only, sorted indices)."""
+def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray,
+                  nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """Node pairs of the near blocks (structure only): CSR ``indptr`` (int64)
+    and sorted ``indices`` (int32 while the node numbers allow: 4 bytes less
+    per entry than scipy's common index type, at the assembly's peak)."""
     nc = len(tree["start"])
     perm = tree["perm"]
     owner = np.empty(len(t), dtype=np.int64)
@@ -632,22 +635,31 @@ def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray, nv: int) -> sp.cs
     pat = (inc.T.tocsr().astype(np.int32) @ (nb.astype(np.int32) @ inc.astype(np.int32)))
     pat = pat.tocsr()
     pat.sort_indices()
-    return sp.csr_matrix((np.zeros(pat.nnz), pat.indices.astype(np.int64),
-                          pat.indptr.astype(np.int64)), shape=(nv, nv))
+    indptr = pat.indptr.astype(np.int64)
+    indices = pat.indices.astype(np.int32 if nv < 2 ** 31 else np.int64, copy=False)
+    del pat
+    return indptr, indices
 
 
 def _restrict(A: sp.csr_matrix, free: np.ndarray) -> sp.csr_matrix:
     """A[free][:, free] for increasing ``free``, compacting A's arrays in place:
     no second copy of the values at the peak.  A is spent, and no other view
     of its arrays may exist (the values are shrunk in place)."""
+    return _restrict_arrays(A.indptr, A.indices, A.data, free, A.shape[0],
+                            A.has_sorted_indices)
+
+
+def _restrict_arrays(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray,
+                     free: np.ndarray, n: int, sorted_indices: bool = True) -> sp.csr_matrix:
+    """:func:`_restrict` of the CSR arrays of an n × n matrix (spent)."""
     if len(free) > 1 and not np.all(np.diff(free) > 0):
+        A = sp.csr_matrix((data, indices, indptr), shape=(n, n))
         return A[free][:, free].tocsr()
-    was_sorted = A.has_sorted_indices
-    new_index = np.full(A.shape[0], -1, dtype=np.int64)
+    new_index = np.full(n, -1, dtype=np.int64)
     new_index[free] = np.arange(len(free))
-    ptr, nnz = hk.restrict_csr_inplace(A.indptr, A.indices, A.data, new_index)
+    ptr, nnz = hk.restrict_csr_inplace(indptr, indices, data, new_index)
     arrays = []
-    for a in (A.data, A.indices):
+    for a in (data, indices):
         if a.flags.owndata:
             a.resize(nnz, refcheck=False)   # shrinks in place: nbytes stays honest
         else:
@@ -655,7 +667,7 @@ def _restrict(A: sp.csr_matrix, free: np.ndarray) -> sp.csr_matrix:
         arrays.append(a)
     out = sp.csr_matrix((arrays[0], arrays[1], ptr), shape=(len(free), len(free)),
                         copy=False)
-    out.has_sorted_indices = was_sorted
+    out.has_sorted_indices = sorted_indices
     return out
 
 
@@ -707,20 +719,25 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     tim["trees"] = time.perf_counter() - t0
 
     t1 = time.perf_counter()
-    A = _near_pattern(tree, near, t, nv)
-    indptr, indices = A.indptr, A.indices
+    indptr, indices = _near_pattern(tree, near, t, nv)
     qx, qw, lam, offs = _far_rules(p, t, quad.far_orders, area2)
     import numba
     nchunks = numba.get_num_threads()
     rows, ptr, cols = near_lists(near)
-    data, D = hk.near_pairs(t, tree["perm"], tree["start"], tree["end"], ptr, rows, cols,
-                            cent, diam, area, mom, grad, qx, qw, lam, offs,
-                            np.asarray(quad.far_thresholds, dtype=np.float64), True, s,
-                            indptr, indices, nv, nchunks)
+    # one private copy of the values per thread (no write races), summed into
+    # the first and shrunk in place: the near field's peak is (8·threads + 4)
+    # bytes per entry, its final size 12 (benchmarks/assembly-memory.md)
+    data = np.zeros((nchunks, len(indices)))
+    D = hk.near_pairs(t, tree["perm"], tree["start"], tree["end"], ptr, rows, cols,
+                      cent, diam, area, mom, grad, qx, qw, lam, offs,
+                      np.asarray(quad.far_thresholds, dtype=np.float64), True, s,
+                      indptr, indices, nv, data)
     del qx, qw
-    data = data.sum(axis=0)
-    A.data = c * hk.symmetrize_csr(indptr, indices, data)
-    del data
+    for k in range(1, nchunks):
+        data[0] += data[k]
+    data.resize(len(indices), refcheck=False)   # the first row, in place
+    hk.symmetrize_csr_inplace(indptr, indices, data)
+    data *= c
     D = D.sum(axis=0)
     tim["near"] = time.perf_counter() - t1
 
@@ -730,12 +747,12 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
                                 (edge_nodes, "edge", quad.edge, c),
                                 (vertex_nodes, "vertex", quad.vertex, c)):
         loc = _singular_local(p, nodes, kind, n, s, quad)
-        hk.scatter_csr(indptr, indices, A.data, nodes, loc, fac)
+        hk.scatter_csr(indptr, indices, data, nodes, loc, fac)
     # close separated pairs of thin triangles: the graded rule's correction
     # (all of them lie in near blocks: their separation ratio is below R)
     pairs, corr = close_pair_corrections(p, t, s, quad, geometry)
     if len(pairs):
-        hk.scatter_csr(indptr, indices, A.data,
+        hk.scatter_csr(indptr, indices, data,
                        np.ascontiguousarray(np.hstack([t[pairs[:, 0]], t[pairs[:, 1]]])),
                        corr, c)
     tim["singular"] = time.perf_counter() - t2
@@ -764,7 +781,7 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     Imat = np.stack([mom[:, [0, 1]], mom[:, [1, 2]]], axis=1)
     E += (D[:, 0, None, None] / 9.0 + al[:, :, None] + al[:, None, :]
           + D[:, 3, None, None] * np.einsum("tad,tde,tbe->tab", grad, Imat, grad))
-    hk.scatter_csr(indptr, indices, A.data, t, E, c)
+    hk.scatter_csr(indptr, indices, data, t, E, c)
     tim["far_diagonal"] = time.perf_counter() - t4
 
     t5 = time.perf_counter()
@@ -775,13 +792,12 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     kappa = CompressedKappa(edges, s, order=min(m + 1, 14), eta=0.5 * eta,
                             leaf_size=leaf_size)
     Kloc = _kappa_local(p, t, bnodes, edges, s, quad, geometry, kappa=kappa)
-    hk.scatter_csr(indptr, indices, A.data, t, Kloc, c)
+    hk.scatter_csr(indptr, indices, data, t, Kloc, c)
     tim["exterior"] = time.perf_counter() - t5
 
     free = np.asarray(mesh.interior_nodes(), dtype=np.int64)
-    del indptr, indices           # A's own arrays: compacted in place below
-    Af = _restrict(A, free)
-    del A
+    Af = _restrict_arrays(indptr, indices, data, free, nv)   # compacted in place
+    del indptr, indices, data
     tim["total"] = time.perf_counter() - t0
     t6 = time.perf_counter()
     M = leaf_matrix(fdata, t, free, nv) if leaf_matrices else None

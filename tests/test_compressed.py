@@ -288,6 +288,48 @@ def test_restriction_to_free_nodes_in_place():
     assert B.data.nbytes == 8 * B.nnz and B.has_sorted_indices
 
 
+def test_in_place_symmetrisation_matches_its_reference():
+    """symmetrize_csr_inplace (the assembly's) gives S + Sᵀ of the reference
+    symmetrize_csr to the last bit, on a symmetric pattern with int32 and
+    int64 indices."""
+    import scipy.sparse as sp
+
+    from fracfem import _h2_kernels as hk
+
+    P = sp.random(300, 300, density=0.05, random_state=7, format="csr")
+    P = (P + P.T + sp.eye(300)).tocsr()
+    P.sort_indices()
+    data = np.random.default_rng(8).standard_normal(P.nnz)   # not symmetric
+    expected = hk.symmetrize_csr(P.indptr.astype(np.int64), P.indices.astype(np.int64), data)
+    for itype in (np.int32, np.int64):
+        got = data.copy()
+        hk.symmetrize_csr_inplace(P.indptr.astype(np.int64), P.indices.astype(itype), got)
+        np.testing.assert_array_equal(got, expected)
+    S = sp.csr_matrix((data, P.indices, P.indptr), shape=P.shape)
+    np.testing.assert_allclose(sp.csr_matrix((expected, P.indices, P.indptr),
+                                             shape=P.shape).toarray(),
+                               (S + S.T).toarray(), rtol=0, atol=1e-15)
+
+
+def test_near_pattern_indices_are_int32_and_sorted():
+    """The near field's pattern holds 4-byte column indices (its peak), sorted
+    in every row, and is symmetric."""
+    import scipy.sparse as sp
+
+    from fracfem import compressed as C
+    from fracfem.assembly import mesh_arrays
+
+    p, t = mesh_arrays(disk_uniform(4))
+    area2, cent, diam = C._element_geometry(p, t)
+    tree = C.cluster_tree(cent, diam, 8)
+    far, near = C.block_tree(tree, tree, 1.0, 8.0)
+    indptr, indices = C._near_pattern(tree, near, t, len(p))
+    assert indices.dtype == np.int32 and indptr.dtype == np.int64
+    assert all(np.all(np.diff(indices[indptr[i]:indptr[i + 1]]) > 0) for i in range(len(p)))
+    P = sp.csr_matrix((np.ones(len(indices)), indices, indptr), shape=(len(p), len(p)))
+    assert (P - P.T).nnz == 0
+
+
 @pytest.mark.parametrize("comps", [(-1,), (0, 1)])
 def test_batched_far_field_matches_stored_coupling_matrices(comps):
     """far_values makes its coupling matrices batch by batch; the sums equal

@@ -1,0 +1,154 @@
+"""Where the compressed operator's assembly holds its memory: peak RSS by phase.
+
+For each mesh, in a process of its own, ``fracfem.compressed.stiffness_operator``
+is assembled (s = 0.5, default QuadratureOptions) while a thread samples the
+resident set every 10 ms.  Per phase of the assembly (``info["timings"]``) the
+table gives its seconds and the largest resident set seen in it, above the
+process's resident set before the assembly; beside them the memory the finished
+operator holds (``nbytes``) and the near field's entries.
+
+Meshes: ``ex2-step<k>`` the fine mesh of step k of the committed Example 2
+reference series (workflow/data/reference/ex2-meshes.npz keeps steps 0, 2, 7
+and 10), ``uniform<L>`` disk_uniform(L), ``graded<h>`` disk_graded_aniso(h).
+
+    python benchmarks/assembly_memory.py ex2-step7 graded0.0127 --md benchmarks/assembly-memory.md
+    python benchmarks/assembly_memory.py ex2-step7 --kappa-chunk 262144
+    python benchmarks/assembly_memory.py ex2-step7 --fracfem /path/to/other/checkout
+
+``--fracfem`` imports fracfem from another checkout (its root), to set one
+version of the code beside another on the same mesh; ``--kappa-chunk`` sets
+``fracfem.assembly.KAPPA_CHUNK`` (points per κ evaluation).  Sampling every
+10 ms can miss a peak shorter than that; the process's own maximum (``ru_maxrss``,
+never missed) is in the last column.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PHASES = ("trees", "near", "singular", "coupling", "far_diagonal", "exterior",
+          "restrict_leaf")
+
+
+def mesh_of(name: str):
+    import numpy as np
+    import skfem
+
+    from fracfem import meshes
+    from fracfem.vi import fine_mesh
+    if name.startswith("ex2-step"):
+        k = int(name[len("ex2-step"):])
+        d = np.load(ROOT / "workflow/data/reference/ex2-meshes.npz")
+        if f"pc{k}" not in d:
+            kept = sorted(int(x[2:]) for x in d if x.startswith("pc") and x[2:].isdigit())
+            raise SystemExit(f"mesh {name!r}: the committed series keeps steps {kept}")
+        return fine_mesh(skfem.MeshTri(d[f"pc{k}"], d[f"tc{k}"]))
+    if name.startswith("uniform"):
+        return meshes.disk_uniform(int(name[len("uniform"):]))
+    if name.startswith("graded"):
+        return meshes.disk_graded_aniso(float(name[len("graded"):]))
+    raise SystemExit(f"mesh {name!r}: expected ex2-step<k>, uniform<L> or graded<h>")
+
+
+def run_case(name: str, kappa_chunk: int | None) -> dict:
+    import resource
+    import threading
+    import time
+
+    samples = []
+
+    def sampler():
+        while True:
+            with open("/proc/self/status") as fh:
+                for line in fh:
+                    if line.startswith("VmRSS"):
+                        samples.append((time.perf_counter(), int(line.split()[1]) / 1024))
+            time.sleep(0.01)
+
+    threading.Thread(target=sampler, daemon=True).start()
+    import fracfem as ff
+    from fracfem import assembly, compressed
+    if kappa_chunk:
+        assembly.KAPPA_CHUNK = int(kappa_chunk)
+    mesh = mesh_of(name)
+    time.sleep(0.05)
+    base = samples[-1][1]
+    t0 = time.perf_counter()
+    op = compressed.stiffness_operator(mesh, 0.5, quadrature=ff.QuadratureOptions())
+    t1 = time.perf_counter()
+    time.sleep(0.05)
+    tim = op.info["timings"]
+    ends = [t0]
+    for k in PHASES[:-1]:
+        ends.append(ends[-1] + tim[k])
+    ends.append(t1)
+    row = dict(mesh=name, fracfem=str(Path(compressed.__file__).parents[1]),
+               kappa_chunk=assembly.KAPPA_CHUNK, dofs=op.shape[0],
+               near_nnz=op.info["near_nnz"], held_mb=op.nbytes / 2**20,
+               assembly_s=t1 - t0)
+    for i, ph in enumerate(PHASES):
+        seen = [r for tt, r in samples if ends[i] <= tt <= ends[i + 1]]
+        row[f"{ph}_s"] = ends[i + 1] - ends[i]
+        row[f"{ph}_mb"] = (max(seen) - base) if seen else float("nan")
+    row["peak_mb"] = max(row[f"{ph}_mb"] for ph in PHASES)
+    row["peak_phase"] = max(PHASES, key=lambda ph: row[f"{ph}_mb"])
+    row["ru_maxrss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return row
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("meshes", nargs="+")
+    ap.add_argument("--kappa-chunk", type=int, default=None)
+    ap.add_argument("--fracfem", type=Path, default=None,
+                    help="root of the checkout whose fracfem is measured (default: this one)")
+    ap.add_argument("--md", type=Path, default=None)
+    ap.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
+    a = ap.parse_args(argv)
+    if a.case:
+        print(json.dumps(run_case(a.meshes[0], a.kappa_chunk)))
+        return
+    code = (a.fracfem or ROOT).resolve()
+    if not (code / "fracfem" / "__init__.py").exists():
+        raise SystemExit(f"--fracfem {a.fracfem}: no fracfem package under it")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(code), str(ROOT)]))
+    load = os.getloadavg()[0]
+    rows = []
+    for name in a.meshes:
+        cmd = [sys.executable, __file__, name, "--case"]
+        if a.kappa_chunk:
+            cmd += ["--kappa-chunk", str(a.kappa_chunk)]
+        out = subprocess.run(cmd, env=env, check=True, capture_output=True, text=True).stdout
+        row = json.loads(out.strip().splitlines()[-1])
+        rows.append(row)
+        print(f"{name}: {row['dofs']} DOFs, held {row['held_mb']:.0f} MB, peak "
+              f"{row['peak_mb']:.0f} MB above the start ({row['peak_phase']}), "
+              f"{row['assembly_s']:.1f} s", flush=True)
+    if a.md:
+        cols = ["mesh", "dofs", "near_nnz", "held_mb", "peak_mb", "peak_phase",
+                "ru_maxrss_mb", "assembly_s"] + [f"{p}_mb" for p in PHASES] \
+            + [f"{p}_s" for p in PHASES]
+
+        def cell(v):
+            return f"{v:.4g}" if isinstance(v, float) else str(v)
+        lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+        lines += ["| " + " | ".join(cell(r[c]) for c in cols) + " |" for r in rows]
+        head = (f"# Compressed operator: memory by assembly phase\n\n"
+                f"`python benchmarks/assembly_memory.py {' '.join(a.meshes)}"
+                + (f" --kappa-chunk {a.kappa_chunk}" if a.kappa_chunk else "")
+                + (f" --fracfem {a.fracfem}" if a.fracfem else "")
+                + f"`, {datetime.date.today()}, 1-minute load average {load:.1f} at the "
+                  f"start (2 cores). `*_mb`: the largest resident set seen in the phase "
+                  f"above the one before the assembly; `held_mb`: the finished operator "
+                  f"(nbytes).\n\n")
+        a.md.write_text(head + "\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
