@@ -11,15 +11,14 @@ Meshes: ``ex2-step<k>`` the fine mesh of step k of the committed Example 2
 reference series (workflow/data/reference/ex2-meshes.npz keeps steps 0, 2, 7
 and 10), ``uniform<L>`` disk_uniform(L), ``graded<h>`` disk_graded_aniso(h).
 
-    python benchmarks/assembly_memory.py ex2-step7 graded0.0127 --md benchmarks/assembly-memory.md
+    python benchmarks/assembly_memory.py ex2-step7 --compare <checkout> --md benchmarks/assembly-memory.md
     python benchmarks/assembly_memory.py ex2-step7 --kappa-chunk 262144
-    python benchmarks/assembly_memory.py ex2-step7 --fracfem /path/to/other/checkout
+    python benchmarks/assembly_memory.py ex2-step7 --compare /path/to/other/checkout
 
-``--fracfem`` imports fracfem from another checkout (its root), to set one
+``--compare`` measures fracfem of another checkout (its root) as well, to set one
 version of the code beside another on the same mesh; ``--kappa-chunk`` sets
 ``fracfem.assembly.KAPPA_CHUNK`` (points per κ evaluation).  Sampling every
-10 ms can miss a peak shorter than that; the process's own maximum (``ru_maxrss``,
-never missed) is in the last column.
+10 ms can miss a peak shorter than that.
 """
 from __future__ import annotations
 
@@ -88,8 +87,7 @@ def run_case(name: str, kappa_chunk: int | None) -> dict:
     for k in PHASES[:-1]:
         ends.append(ends[-1] + tim[k])
     ends.append(t1)
-    row = dict(mesh=name, fracfem=str(Path(compressed.__file__).parents[1]),
-               kappa_chunk=assembly.KAPPA_CHUNK, dofs=op.shape[0],
+    row = dict(mesh=name, kappa_chunk=assembly.KAPPA_CHUNK, dofs=op.shape[0],
                near_nnz=op.info["near_nnz"], held_mb=op.nbytes / 2**20,
                assembly_s=t1 - t0)
     for i, ph in enumerate(PHASES):
@@ -102,51 +100,64 @@ def run_case(name: str, kappa_chunk: int | None) -> dict:
     return row
 
 
+def commit_of(root: Path) -> str:
+    """The short commit of a checkout (with '+' when its fracfem/ has changes)."""
+    def git(*args):
+        return subprocess.run(["git", "-C", str(root), *args], capture_output=True,
+                              text=True).stdout.strip()
+    head = git("rev-parse", "--short", "HEAD") or root.name
+    return head + ("+" if git("status", "--porcelain", "--", "fracfem") else "")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("meshes", nargs="+")
     ap.add_argument("--kappa-chunk", type=int, default=None)
-    ap.add_argument("--fracfem", type=Path, default=None,
-                    help="root of the checkout whose fracfem is measured (default: this one)")
+    ap.add_argument("--compare", type=Path, default=None,
+                    help="root of another checkout whose fracfem is measured as well")
     ap.add_argument("--md", type=Path, default=None)
     ap.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.case:
         print(json.dumps(run_case(a.meshes[0], a.kappa_chunk)))
         return
-    code = (a.fracfem or ROOT).resolve()
-    if not (code / "fracfem" / "__init__.py").exists():
-        raise SystemExit(f"--fracfem {a.fracfem}: no fracfem package under it")
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(code), str(ROOT)]))
+    checkouts = [ROOT] + ([a.compare.resolve()] if a.compare else [])
+    for code in checkouts:
+        if not (code / "fracfem" / "__init__.py").exists():
+            raise SystemExit(f"--compare {a.compare}: no fracfem package under it")
     load = os.getloadavg()[0]
     rows = []
     for name in a.meshes:
-        cmd = [sys.executable, __file__, name, "--case"]
-        if a.kappa_chunk:
-            cmd += ["--kappa-chunk", str(a.kappa_chunk)]
-        out = subprocess.run(cmd, env=env, check=True, capture_output=True, text=True).stdout
-        row = json.loads(out.strip().splitlines()[-1])
-        rows.append(row)
-        print(f"{name}: {row['dofs']} DOFs, held {row['held_mb']:.0f} MB, peak "
-              f"{row['peak_mb']:.0f} MB above the start ({row['peak_phase']}), "
-              f"{row['assembly_s']:.1f} s", flush=True)
+        for code in checkouts:
+            env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(code), str(ROOT)]))
+            cmd = [sys.executable, __file__, name, "--case"]
+            if a.kappa_chunk:
+                cmd += ["--kappa-chunk", str(a.kappa_chunk)]
+            out = subprocess.run(cmd, env=env, check=True, capture_output=True,
+                                 text=True).stdout
+            row = json.loads(out.strip().splitlines()[-1])
+            row["code"] = commit_of(code)
+            rows.append(row)
+            print(f"{name} ({row['code']}): {row['dofs']} DOFs, held {row['held_mb']:.0f} MB, "
+                  f"peak {row['peak_mb']:.0f} MB above the start ({row['peak_phase']}), "
+                  f"{row['assembly_s']:.1f} s", flush=True)
     if a.md:
-        cols = ["mesh", "dofs", "near_nnz", "held_mb", "peak_mb", "peak_phase",
-                "ru_maxrss_mb", "assembly_s"] + [f"{p}_mb" for p in PHASES] \
-            + [f"{p}_s" for p in PHASES]
-
-        def cell(v):
-            return f"{v:.4g}" if isinstance(v, float) else str(v)
+        cols = ["mesh", "code", "dofs", "near_nnz", "held_mb", "phase", "phase_s", "phase_mb"]
         lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-        lines += ["| " + " | ".join(cell(r[c]) for c in cols) + " |" for r in rows]
+        for r in rows:
+            for ph in PHASES + ("whole",):
+                sec = r["assembly_s"] if ph == "whole" else r[f"{ph}_s"]
+                mb = r["peak_mb"] if ph == "whole" else r[f"{ph}_mb"]
+                lines.append(f"| {r['mesh']} | {r['code']} | {r['dofs']} | {r['near_nnz']} | "
+                             f"{r['held_mb']:.0f} | {ph} | {sec:.1f} | {mb:.0f} |")
         head = (f"# Compressed operator: memory by assembly phase\n\n"
                 f"`python benchmarks/assembly_memory.py {' '.join(a.meshes)}"
                 + (f" --kappa-chunk {a.kappa_chunk}" if a.kappa_chunk else "")
-                + (f" --fracfem {a.fracfem}" if a.fracfem else "")
+                + (" --compare <checkout>" if a.compare else "")
                 + f"`, {datetime.date.today()}, 1-minute load average {load:.1f} at the "
-                  f"start (2 cores). `*_mb`: the largest resident set seen in the phase "
-                  f"above the one before the assembly; `held_mb`: the finished operator "
-                  f"(nbytes).\n\n")
+                  f"start (2 cores). `phase_mb`: the largest resident set seen in the phase, "
+                  f"above the one before the assembly (`whole`: over the assembly); "
+                  f"`held_mb`: the finished operator (nbytes).\n\n")
         a.md.write_text(head + "\n".join(lines) + "\n")
 
 

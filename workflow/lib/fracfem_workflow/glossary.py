@@ -364,6 +364,16 @@ GROUPS = [
         "estimate_s": "seconds of the step's estimator η (its pointwise (−Δ)ˢu_h included)",
         "cumulative_s": "seconds from the start of Algorithm B to the end of the step",
     }),
+    ("Assembly memory by phase (`benchmarks/assembly-memory.md`)", False, {
+        "code": "the commit whose fracfem is measured ('+': with changes to fracfem/)",
+        "near_nnz": "entries of the near field's sparse matrix on all nodes",
+        "held_mb": "memory of the finished compressed operator, MiB",
+        "phase": "phase of the assembly (as `t_trees` … `t_exterior`, then the restriction "
+                 "to free nodes and the leaf matrix); `whole`: the assembly",
+        "phase_s": "its seconds",
+        "phase_mb": "the largest resident set seen in it (sampled every 10 ms), MiB above the "
+                    "one before the assembly",
+    }),
     ("Dense or compressed for `operator=\"auto\"` (`benchmarks/auto-operator.md`)", False, {
         "mesh_kind": "the mesh: a family member, or the (fine) mesh of an Algorithm B step",
         "dense_total_s": "seconds to assemble the dense matrix and solve by Cholesky",
