@@ -597,6 +597,20 @@ def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, 
     return D
 
 
+@njit(cache=True)
+def _csr_position(indptr, indices, i, j):  # pragma: no cover
+    """Position of entry (i, j) in a CSR pattern with sorted indices that holds it."""
+    lo = indptr[i]
+    hi = indptr[i + 1] - 1
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if indices[mid] < j:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 @njit(cache=True, parallel=True)
 def symmetrize_csr(indptr, indices, data):  # pragma: no cover
     """S + Sᵀ on a symmetric pattern with sorted indices, into a new array
@@ -606,15 +620,7 @@ def symmetrize_csr(indptr, indices, data):  # pragma: no cover
     for i in prange(n):
         for k in range(indptr[i], indptr[i + 1]):
             j = indices[k]
-            lo = indptr[j]
-            hi = indptr[j + 1] - 1
-            while lo < hi:
-                mid = (lo + hi) >> 1
-                if indices[mid] < i:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            out[k] = data[k] + data[lo]
+            out[k] = data[k] + data[_csr_position(indptr, indices, j, i)]
     return out
 
 
@@ -633,17 +639,10 @@ def symmetrize_csr_inplace(indptr, indices, data):  # pragma: no cover
             if j == i:
                 data[k] = 2.0 * data[k]
                 continue
-            lo = indptr[j]
-            hi = indptr[j + 1] - 1
-            while lo < hi:
-                mid = (lo + hi) >> 1
-                if indices[mid] < i:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            v = data[k] + data[lo]
+            kt = _csr_position(indptr, indices, j, i)
+            v = data[k] + data[kt]
             data[k] = v
-            data[lo] = v
+            data[kt] = v
 
 
 @njit(cache=True)
