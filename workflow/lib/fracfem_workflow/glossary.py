@@ -364,7 +364,8 @@ GROUPS = [
         "estimate_s": "seconds of the step's estimator η (its pointwise (−Δ)ˢu_h included)",
         "cumulative_s": "seconds from the start of Algorithm B to the end of the step",
     }),
-    ("Assembly memory by phase (`benchmarks/assembly-memory.md`)", False, {
+    ("Assembly memory by phase (`benchmarks/assembly-memory.md`, "
+     "`benchmarks/assembly-memory-large.md`)", False, {
         "code": "the commit whose fracfem is measured ('+': with changes to fracfem/)",
         "near_nnz": "entries of the near field's sparse matrix on all nodes",
         "held_mb": "memory of the finished compressed operator, MiB",
