@@ -17,8 +17,11 @@ and 10), ``uniform<L>`` disk_uniform(L), ``graded<h>`` disk_graded_aniso(h).
 
 ``--compare`` measures fracfem of another checkout (its root) as well, to set one
 version of the code beside another on the same mesh; ``--kappa-chunk`` sets
-``fracfem.assembly.KAPPA_CHUNK`` (points per κ evaluation).  Sampling every
-10 ms can miss a peak shorter than that.
+``fracfem.assembly.KAPPA_CHUNK`` (points per κ evaluation).  The sampling
+thread can miss a short peak: every 10 ms, and not at all while a serial numba
+kernel holds the interpreter (the parallel ones release it).  A phase without a
+sample shows nan.  Run a checkout once before measuring it, so that its numba
+kernels come from the cache rather than being compiled inside a phase.
 """
 from __future__ import annotations
 
@@ -94,8 +97,9 @@ def run_case(name: str, kappa_chunk: int | None) -> dict:
         seen = [r for tt, r in samples if ends[i] <= tt <= ends[i + 1]]
         row[f"{ph}_s"] = ends[i + 1] - ends[i]
         row[f"{ph}_mb"] = (max(seen) - base) if seen else float("nan")
-    row["peak_mb"] = max(row[f"{ph}_mb"] for ph in PHASES)
-    row["peak_phase"] = max(PHASES, key=lambda ph: row[f"{ph}_mb"])
+    seen = [ph for ph in PHASES if row[f"{ph}_mb"] == row[f"{ph}_mb"]]   # not NaN
+    row["peak_phase"] = max(seen, key=lambda ph: row[f"{ph}_mb"])
+    row["peak_mb"] = row[f"{row['peak_phase']}_mb"]
     row["ru_maxrss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     return row
 
@@ -124,7 +128,7 @@ def main(argv=None):
     checkouts = [ROOT] + ([a.compare.resolve()] if a.compare else [])
     for code in checkouts:
         if not (code / "fracfem" / "__init__.py").exists():
-            raise SystemExit(f"--compare {a.compare}: no fracfem package under it")
+            raise SystemExit(f"{code}: no fracfem package under it")
     load = os.getloadavg()[0]
     rows = []
     for name in a.meshes:
@@ -133,8 +137,8 @@ def main(argv=None):
             cmd = [sys.executable, __file__, name, "--case"]
             if a.kappa_chunk:
                 cmd += ["--kappa-chunk", str(a.kappa_chunk)]
-            out = subprocess.run(cmd, env=env, check=True, capture_output=True,
-                                 text=True).stdout
+            out = subprocess.run(cmd, env=env, check=True, stdout=subprocess.PIPE,
+                                 text=True).stdout   # its errors go to this stderr
             row = json.loads(out.strip().splitlines()[-1])
             row["code"] = commit_of(code)
             rows.append(row)

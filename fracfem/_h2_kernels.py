@@ -599,7 +599,9 @@ def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, 
 
 @njit(cache=True)
 def _csr_position(indptr, indices, i, j):  # pragma: no cover
-    """Position of entry (i, j) in a CSR pattern with sorted indices that holds it."""
+    """Position of entry (i, j) in a CSR pattern with sorted indices that holds it
+    (not checked: on a pattern without (i, j) it is the first entry of row i
+    past column j)."""
     lo = indptr[i]
     hi = indptr[i + 1] - 1
     while lo < hi:

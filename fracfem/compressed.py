@@ -617,8 +617,8 @@ def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None,
 def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray,
                   nv: int) -> tuple[np.ndarray, np.ndarray]:
     """Node pairs of the near blocks (structure only): CSR ``indptr`` (int64)
-    and sorted ``indices`` (int32 while the node numbers allow: 4 bytes less
-    per entry than scipy's common index type, at the assembly's peak)."""
+    and sorted ``indices`` (int32 while the node numbers allow), both arrays of
+    their own, so that :func:`_restrict_arrays` compacts them in place."""
     nc = len(tree["start"])
     perm = tree["perm"]
     owner = np.empty(len(t), dtype=np.int64)
@@ -636,7 +636,7 @@ def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray,
     pat = pat.tocsr()
     pat.sort_indices()
     indptr = pat.indptr.astype(np.int64)
-    indices = pat.indices.astype(np.int32 if nv < 2 ** 31 else np.int64, copy=False)
+    indices = np.array(pat.indices, dtype=np.int32 if nv < 2 ** 31 else np.int64)
     del pat
     return indptr, indices
 
@@ -726,7 +726,7 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     rows, ptr, cols = near_lists(near)
     # one private copy of the values per thread (no write races), summed into
     # the first and shrunk in place: the near field's peak is (8·threads + 4)
-    # bytes per entry, its final size 12 (benchmarks/assembly-memory.md)
+    # bytes per entry, its final size 12 while nnz < 2^31 (benchmarks/assembly-memory.md)
     data = np.zeros((nchunks, len(indices)))
     D = hk.near_pairs(t, tree["perm"], tree["start"], tree["end"], ptr, rows, cols,
                       cent, diam, area, mom, grad, qx, qw, lam, offs,

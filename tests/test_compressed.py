@@ -311,9 +311,10 @@ def test_in_place_symmetrisation_matches_its_reference():
                                (S + S.T).toarray(), rtol=0, atol=1e-15)
 
 
-def test_near_pattern_indices_are_int32_and_sorted():
-    """The near field's pattern holds 4-byte column indices (its peak), sorted
-    in every row, and is symmetric."""
+def test_near_pattern_is_the_node_pairs_of_the_near_blocks():
+    """The near field's pattern is exactly the node pairs of the elements of
+    every near block (from the tree, pair by pair), with sorted int32 column
+    indices."""
     import scipy.sparse as sp
 
     from fracfem import compressed as C
@@ -326,8 +327,33 @@ def test_near_pattern_indices_are_int32_and_sorted():
     indptr, indices = C._near_pattern(tree, near, t, len(p))
     assert indices.dtype == np.int32 and indptr.dtype == np.int64
     assert all(np.all(np.diff(indices[indptr[i]:indptr[i + 1]]) > 0) for i in range(len(p)))
-    P = sp.csr_matrix((np.ones(len(indices)), indices, indptr), shape=(len(p), len(p)))
-    assert (P - P.T).nnz == 0
+    pairs = set()
+    for a, b in near:
+        ea = tree["perm"][tree["start"][a]:tree["end"][a]]
+        eb = tree["perm"][tree["start"][b]:tree["end"][b]]
+        pairs.update((int(i), int(j)) for i in np.unique(t[ea]) for j in np.unique(t[eb]))
+    rows = np.repeat(np.arange(len(p)), np.diff(indptr))
+    assert set(zip(rows.tolist(), indices.tolist())) == pairs
+    assert len(pairs) == len(indices)
+
+
+def test_restriction_of_owned_arrays_compacts_them_in_place():
+    """_restrict_arrays on arrays of its own (as the assembly's) keeps their
+    memory: no second copy of the values or indices at the peak."""
+    import scipy.sparse as sp
+
+    from fracfem.compressed import _restrict_arrays
+
+    A = sp.random(200, 200, density=0.1, random_state=9, format="csr")
+    A = (A + A.T).tocsr()
+    A.sort_indices()
+    data, indices = A.data.copy(), np.array(A.indices, dtype=np.int32)
+    free = np.sort(np.random.default_rng(10).choice(200, 150, replace=False))
+    expected = A[free][:, free].toarray()
+    B = _restrict_arrays(A.indptr.astype(np.int64), indices, data, free, 200)
+    np.testing.assert_array_equal(B.toarray(), expected)
+    assert np.shares_memory(B.data, data) and np.shares_memory(B.indices, indices)
+    assert B.data.nbytes == 8 * B.nnz and B.indices.dtype == np.int32
 
 
 @pytest.mark.parametrize("comps", [(-1,), (0, 1)])

@@ -367,7 +367,7 @@ GROUPS = [
     ("Assembly memory by phase (`benchmarks/assembly-memory.md`, "
      "`benchmarks/assembly-memory-large.md`)", False, {
         "code": "the commit whose fracfem is measured ('+': with changes to fracfem/)",
-        "near_nnz": "entries of the near field's sparse matrix on all nodes",
+        "near_nnz": "entries of the near field's sparse matrix on the free nodes",
         "held_mb": "memory of the finished compressed operator, MiB",
         "phase": "phase of the assembly (as `t_trees` … `t_exterior`, then the restriction "
                  "to free nodes and the leaf matrix); `whole`: the assembly",
