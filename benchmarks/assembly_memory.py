@@ -29,6 +29,7 @@ import argparse
 import datetime
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -122,9 +123,14 @@ def main(argv=None):
     ap.add_argument("--md", type=Path, default=None)
     ap.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
+    if a.kappa_chunk is not None and a.kappa_chunk < 1:
+        ap.error(f"--kappa-chunk {a.kappa_chunk}: must be a positive number of points")
     if a.case:
         print(json.dumps(run_case(a.meshes[0], a.kappa_chunk)))
         return
+    for name in a.meshes:
+        if not re.fullmatch(r"ex2-step\d+|uniform\d+|graded[0-9.]+", name):
+            ap.error(f"mesh {name!r}: expected ex2-step<k>, uniform<L> or graded<h>")
     checkouts = [ROOT] + ([a.compare.resolve()] if a.compare else [])
     for code in checkouts:
         if not (code / "fracfem" / "__init__.py").exists():
@@ -137,8 +143,10 @@ def main(argv=None):
             cmd = [sys.executable, __file__, name, "--case"]
             if a.kappa_chunk:
                 cmd += ["--kappa-chunk", str(a.kappa_chunk)]
-            out = subprocess.run(cmd, env=env, check=True, stdout=subprocess.PIPE,
-                                 text=True).stdout   # its errors go to this stderr
+            run = subprocess.run(cmd, env=env, stdout=subprocess.PIPE, text=True)
+            if run.returncode:   # its message went to this stderr
+                raise SystemExit(f"{name} ({code}): the case failed (exit {run.returncode})")
+            out = run.stdout
             row = json.loads(out.strip().splitlines()[-1])
             row["code"] = commit_of(code)
             rows.append(row)
