@@ -315,15 +315,13 @@ def test_near_pattern_is_the_node_pairs_of_the_near_blocks():
     """The near field's pattern is exactly the node pairs of the elements of
     every near block (from the tree, pair by pair), with sorted int32 column
     indices."""
-    import scipy.sparse as sp
-
     from fracfem import compressed as C
     from fracfem.assembly import mesh_arrays
 
     p, t = mesh_arrays(disk_uniform(4))
-    area2, cent, diam = C._element_geometry(p, t)
+    _, cent, diam = C._element_geometry(p, t)
     tree = C.cluster_tree(cent, diam, 8)
-    far, near = C.block_tree(tree, tree, 1.0, 8.0)
+    _, near = C.block_tree(tree, tree, 1.0, 8.0)
     indptr, indices = C._near_pattern(tree, near, t, len(p))
     assert indices.dtype == np.int32 and indptr.dtype == np.int64
     assert all(np.all(np.diff(indices[indptr[i]:indptr[i + 1]]) > 0) for i in range(len(p)))
