@@ -453,155 +453,11 @@ def csr_rmatvec(indptr, indices, data, g, ncols, nchunks):  # pragma: no cover
 
 
 @njit(cache=True)
-def _csr_add(indptr, indices, data, i, j, v):  # pragma: no cover
-    lo = indptr[i]
-    hi = indptr[i + 1] - 1
-    while lo <= hi:
-        mid = (lo + hi) >> 1
-        cm = indices[mid]
-        if cm == j:
-            data[mid] += v
-            return
-        if cm < j:
-            lo = mid + 1
-        else:
-            hi = mid - 1
-    raise IndexError("entry outside the near-field pattern")
-
-
-@njit(cache=True, parallel=True)
-def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, diam,
-               area, mom, grad, qx, qw, lam, offsets, thresholds, taylor, s,
-               indptr, indices, nv, data):  # pragma: no cover
-    """Separated element pairs of the near blocks with the dense assembly's
-    rules (:func:`fracfem._kernels.far_pairs`); touching pairs are skipped.
-
-    Near blocks sorted by row cluster σ (near_ptr[i]:near_ptr[i+1] are the
-    blocks of row near_rows[i]).  Each unordered pair once: blocks with σ < τ
-    whole, σ = τ for T < T'.  The one-sided part X of a pair (T, T') goes to
-    entry (t[T, a], t[T', b]) of per-chunk copies of the CSR data (``data``,
-    zeros of shape (nchunks, nnz), allocated by the caller so that it can
-    shrink them in place), found through a column → position map of the three
-    rows of T (the pattern holds nodes(σ) × nodes(τ) of every near block); add
-    the transpose with :func:`symmetrize_csr_inplace`.  Returns D (nchunks,
-    nt, nq_total + 4) as in far_pairs.
-    """
-    nt = t.shape[0]
-    nlev = offsets.shape[0] - 1
-    nqt = offsets[nlev]
-    expo = -1.0 - s
-    alpha = -2.0 - 2.0 * s
-    nchunks = data.shape[0]
-    D = np.zeros((nchunks, nt, nqt + 4))
-    nrow = near_rows.shape[0]
-    for c in prange(nchunks):
-        W = np.empty((64, 64))
-        V = np.empty((3, 64))
-        X = np.empty((3, 3))
-        pos = np.zeros((3, nv), dtype=np.int64)
-        for ri in range(c, nrow, nchunks):
-            sig = near_rows[ri]
-            for k1 in range(cl_start[sig], cl_end[sig]):
-                T = perm[k1]
-                i0, i1, i2 = t[T, 0], t[T, 1], t[T, 2]
-                for a in range(3):
-                    ia = t[T, a]
-                    for kk in range(indptr[ia], indptr[ia + 1]):
-                        pos[a, indices[kk]] = kk
-                for bb in range(near_ptr[ri], near_ptr[ri + 1]):
-                    tau = near_cols[bb]
-                    if sig > tau:
-                        continue
-                    k2s = cl_start[tau]
-                    if sig == tau:
-                        k2s = k1 + 1
-                    for k2 in range(k2s, cl_end[tau]):
-                        T2 = perm[k2]
-                        j0, j1, j2 = t[T2, 0], t[T2, 1], t[T2, 2]
-                        if (i0 == j0 or i0 == j1 or i0 == j2 or i1 == j0 or i1 == j1
-                                or i1 == j2 or i2 == j0 or i2 == j1 or i2 == j2):
-                            continue
-                        dx = cent[T, 0] - cent[T2, 0]
-                        dy = cent[T, 1] - cent[T2, 1]
-                        hm = max(diam[T], diam[T2])
-                        r2 = dx * dx + dy * dy
-                        lev = nlev - 1
-                        for L in range(nlev - 1):
-                            if r2 >= thresholds[L] * thresholds[L] * hm * hm:
-                                lev = L
-                                break
-                        q0 = offsets[lev]
-                        nq = offsets[lev + 1] - q0
-                        if taylor and lev == 0:
-                            k = r2 ** expo
-                            kr = alpha * k / r2
-                            gx = kr * dx
-                            gy = kr * dy
-                            hxx = kr * (1.0 + (alpha - 2.0) * dx * dx / r2)
-                            hxy = kr * (alpha - 2.0) * dx * dy / r2
-                            hyy = kr * (1.0 + (alpha - 2.0) * dy * dy / r2)
-                            A1 = area[T]
-                            A2 = area[T2]
-                            tr1 = hxx * mom[T, 0] + 2.0 * hxy * mom[T, 1] + hyy * mom[T, 2]
-                            tr2 = hxx * mom[T2, 0] + 2.0 * hxy * mom[T2, 1] + hyy * mom[T2, 2]
-                            C0 = A1 * A2 * k + 0.5 * (A2 * tr1 + A1 * tr2)
-                            a1x = A2 * (mom[T, 0] * gx + mom[T, 1] * gy)
-                            a1y = A2 * (mom[T, 1] * gx + mom[T, 2] * gy)
-                            a2x = A1 * (mom[T2, 0] * gx + mom[T2, 1] * gy)
-                            a2y = A1 * (mom[T2, 1] * gx + mom[T2, 2] * gy)
-                            D[c, T, 0] += C0
-                            D[c, T2, 0] += C0
-                            D[c, T, 1] += a1x
-                            D[c, T, 2] += a1y
-                            D[c, T2, 1] -= a2x
-                            D[c, T2, 2] -= a2y
-                            D[c, T, 3] += k * A2
-                            D[c, T2, 3] += k * A1
-                            for a in range(3):
-                                pa = (a1x * grad[T, a, 0] + a1y * grad[T, a, 1]) / 3.0
-                                for b in range(3):
-                                    pb = (a2x * grad[T2, b, 0] + a2y * grad[T2, b, 1]) / 3.0
-                                    X[a, b] = -(C0 / 9.0 - pb + pa)
-                        else:
-                            for q in range(nq):
-                                xq0 = qx[T, q0 + q, 0]
-                                xq1 = qx[T, q0 + q, 1]
-                                wqq = qw[T, q0 + q]
-                                for r in range(nq):
-                                    ex = xq0 - qx[T2, q0 + r, 0]
-                                    ey = xq1 - qx[T2, q0 + r, 1]
-                                    W[q, r] = wqq * qw[T2, q0 + r] * (ex * ex + ey * ey) ** expo
-                            for q in range(nq):
-                                sq = 0.0
-                                sr = 0.0
-                                for r in range(nq):
-                                    sq += W[q, r]
-                                    sr += W[r, q]
-                                D[c, T, 4 + q0 + q] += sq
-                                D[c, T2, 4 + q0 + q] += sr
-                            for a in range(3):
-                                for r in range(nq):
-                                    acc = 0.0
-                                    for q in range(nq):
-                                        acc += lam[q0 + q, a] * W[q, r]
-                                    V[a, r] = acc
-                            for a in range(3):
-                                for b in range(3):
-                                    acc = 0.0
-                                    for r in range(nq):
-                                        acc += V[a, r] * lam[q0 + r, b]
-                                    X[a, b] = -acc
-                        for a in range(3):
-                            for b in range(3):
-                                data[c, pos[a, t[T2, b]]] += X[a, b]
-    return D
-
-
-@njit(cache=True)
 def _csr_position(indptr, indices, i, j):  # pragma: no cover
     """Position of entry (i, j) in a CSR pattern with sorted indices that holds it
     (not checked: on a pattern without (i, j) it is the first entry of row i
-    past column j)."""
+    past column j, or the row's last entry, or the next row's first when row i
+    is empty)."""
     lo = indptr[i]
     hi = indptr[i + 1] - 1
     while lo < hi:
@@ -611,6 +467,180 @@ def _csr_position(indptr, indices, i, j):  # pragma: no cover
         else:
             hi = mid
     return lo
+
+
+@njit(cache=True)
+def _csr_add(indptr, indices, data, i, j, v):  # pragma: no cover
+    """data[(i, j)] += v; raises when the pattern has no entry (i, j)."""
+    k = _csr_position(indptr, indices, i, j)
+    if k >= indptr[i + 1] or indices[k] != j:
+        raise IndexError("entry outside the near-field pattern")
+    data[k] += v
+
+
+@njit(cache=True)
+def greedy_colouring(indptr, indices):  # pragma: no cover
+    """Colours of the vertices of a graph (CSR adjacency, self-loops allowed),
+    smallest first in vertex order: no two neighbours share one."""
+    n = indptr.shape[0] - 1
+    colour = np.full(n, -1, dtype=np.int64)
+    seen = np.full(n + 1, -1, dtype=np.int64)
+    for v in range(n):
+        for k in range(indptr[v], indptr[v + 1]):
+            cu = colour[indices[k]]
+            if cu >= 0:
+                seen[cu] = v
+        cv = 0
+        while seen[cv] == v:
+            cv += 1
+        colour[v] = cv
+    return colour
+
+
+@njit(cache=True, parallel=True)
+def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, diam,
+               area, mom, grad, qx, qw, lam, offsets, thresholds, taylor, s,
+               indptr, indices, nv, row_order, colour_ptr, nchunks,
+               data):  # pragma: no cover
+    """Separated element pairs of the near blocks with the dense assembly's
+    rules (:func:`fracfem._kernels.far_pairs`); touching pairs are skipped.
+
+    Near blocks sorted by row cluster σ (near_ptr[i]:near_ptr[i+1] are the
+    blocks of row near_rows[i]).  Each unordered pair once: blocks with σ < τ
+    whole, σ = τ for T < T'.  The one-sided part X of a pair (T, T') goes to
+    entry (t[T, a], t[T', b]) of the CSR data, found through a column →
+    position map of the three rows of T (the pattern holds nodes(σ) × nodes(τ)
+    of every near block); add the transpose with :func:`symmetrize_csr_inplace`.
+
+    The row clusters come in classes, row_order[colour_ptr[k]:colour_ptr[k+1]]
+    (indices into near_rows), taken one after the other; ``nchunks`` threads
+    share each class.  ``data`` (allocated by the caller, so that it can shrink
+    it in place) is either one array of zeros of shape (1, nnz), written by
+    every thread, which is race-free when no two row clusters of a class share
+    a node (:func:`greedy_colouring`), or per-thread copies (nchunks, nnz) to
+    be summed, for any classes.  Returns D (nchunks, nt, nq_total + 4) as in
+    far_pairs.
+    """
+    nt = t.shape[0]
+    nlev = offsets.shape[0] - 1
+    nqt = offsets[nlev]
+    expo = -1.0 - s
+    alpha = -2.0 - 2.0 * s
+    if data.shape[0] != 1 and data.shape[0] != nchunks:
+        raise ValueError("data must have one row or one per chunk")
+    copy_stride = 0 if data.shape[0] == 1 else 1   # shared array, or one per chunk
+    D = np.zeros((nchunks, nt, nqt + 4))
+    W_all = np.empty((nchunks, 64, 64))
+    V_all = np.empty((nchunks, 3, 64))
+    X_all = np.empty((nchunks, 3, 3))
+    pos_all = np.zeros((nchunks, 3, nv), dtype=np.int64)
+    for col in range(colour_ptr.shape[0] - 1):
+        lo_c = colour_ptr[col]
+        hi_c = colour_ptr[col + 1]
+        for c in prange(nchunks):
+            W = W_all[c]
+            V = V_all[c]
+            X = X_all[c]
+            pos = pos_all[c]
+            dc = np.int64(c) * copy_stride
+            for oi in range(lo_c + c, hi_c, nchunks):
+                ri = row_order[oi]
+                sig = near_rows[ri]
+                for k1 in range(cl_start[sig], cl_end[sig]):
+                    T = perm[k1]
+                    i0, i1, i2 = t[T, 0], t[T, 1], t[T, 2]
+                    for a in range(3):
+                        ia = t[T, a]
+                        for kk in range(indptr[ia], indptr[ia + 1]):
+                            pos[a, indices[kk]] = kk
+                    for bb in range(near_ptr[ri], near_ptr[ri + 1]):
+                        tau = near_cols[bb]
+                        if sig > tau:
+                            continue
+                        k2s = cl_start[tau]
+                        if sig == tau:
+                            k2s = k1 + 1
+                        for k2 in range(k2s, cl_end[tau]):
+                            T2 = perm[k2]
+                            j0, j1, j2 = t[T2, 0], t[T2, 1], t[T2, 2]
+                            if (i0 == j0 or i0 == j1 or i0 == j2 or i1 == j0 or i1 == j1
+                                    or i1 == j2 or i2 == j0 or i2 == j1 or i2 == j2):
+                                continue
+                            dx = cent[T, 0] - cent[T2, 0]
+                            dy = cent[T, 1] - cent[T2, 1]
+                            hm = max(diam[T], diam[T2])
+                            r2 = dx * dx + dy * dy
+                            lev = nlev - 1
+                            for L in range(nlev - 1):
+                                if r2 >= thresholds[L] * thresholds[L] * hm * hm:
+                                    lev = L
+                                    break
+                            q0 = offsets[lev]
+                            nq = offsets[lev + 1] - q0
+                            if taylor and lev == 0:
+                                k = r2 ** expo
+                                kr = alpha * k / r2
+                                gx = kr * dx
+                                gy = kr * dy
+                                hxx = kr * (1.0 + (alpha - 2.0) * dx * dx / r2)
+                                hxy = kr * (alpha - 2.0) * dx * dy / r2
+                                hyy = kr * (1.0 + (alpha - 2.0) * dy * dy / r2)
+                                A1 = area[T]
+                                A2 = area[T2]
+                                tr1 = hxx * mom[T, 0] + 2.0 * hxy * mom[T, 1] + hyy * mom[T, 2]
+                                tr2 = hxx * mom[T2, 0] + 2.0 * hxy * mom[T2, 1] + hyy * mom[T2, 2]
+                                C0 = A1 * A2 * k + 0.5 * (A2 * tr1 + A1 * tr2)
+                                a1x = A2 * (mom[T, 0] * gx + mom[T, 1] * gy)
+                                a1y = A2 * (mom[T, 1] * gx + mom[T, 2] * gy)
+                                a2x = A1 * (mom[T2, 0] * gx + mom[T2, 1] * gy)
+                                a2y = A1 * (mom[T2, 1] * gx + mom[T2, 2] * gy)
+                                D[c, T, 0] += C0
+                                D[c, T2, 0] += C0
+                                D[c, T, 1] += a1x
+                                D[c, T, 2] += a1y
+                                D[c, T2, 1] -= a2x
+                                D[c, T2, 2] -= a2y
+                                D[c, T, 3] += k * A2
+                                D[c, T2, 3] += k * A1
+                                for a in range(3):
+                                    pa = (a1x * grad[T, a, 0] + a1y * grad[T, a, 1]) / 3.0
+                                    for b in range(3):
+                                        pb = (a2x * grad[T2, b, 0] + a2y * grad[T2, b, 1]) / 3.0
+                                        X[a, b] = -(C0 / 9.0 - pb + pa)
+                            else:
+                                for q in range(nq):
+                                    xq0 = qx[T, q0 + q, 0]
+                                    xq1 = qx[T, q0 + q, 1]
+                                    wqq = qw[T, q0 + q]
+                                    for r in range(nq):
+                                        ex = xq0 - qx[T2, q0 + r, 0]
+                                        ey = xq1 - qx[T2, q0 + r, 1]
+                                        W[q, r] = (wqq * qw[T2, q0 + r]
+                                                   * (ex * ex + ey * ey) ** expo)
+                                for q in range(nq):
+                                    sq = 0.0
+                                    sr = 0.0
+                                    for r in range(nq):
+                                        sq += W[q, r]
+                                        sr += W[r, q]
+                                    D[c, T, 4 + q0 + q] += sq
+                                    D[c, T2, 4 + q0 + q] += sr
+                                for a in range(3):
+                                    for r in range(nq):
+                                        acc = 0.0
+                                        for q in range(nq):
+                                            acc += lam[q0 + q, a] * W[q, r]
+                                        V[a, r] = acc
+                                for a in range(3):
+                                    for b in range(3):
+                                        acc = 0.0
+                                        for r in range(nq):
+                                            acc += V[a, r] * lam[q0 + r, b]
+                                        X[a, b] = -acc
+                            for a in range(3):
+                                for b in range(3):
+                                    data[dc, pos[a, t[T2, b]]] += X[a, b]
+    return D
 
 
 @njit(cache=True, parallel=True)

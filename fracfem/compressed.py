@@ -641,6 +641,31 @@ def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray,
     return indptr, indices
 
 
+def _row_classes(tree: dict, rows: np.ndarray, t: np.ndarray,
+                 nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """Classes of the near blocks' row clusters ``rows`` in which no two
+    clusters have a node in common, for :func:`fracfem._h2_kernels.near_pairs`
+    to write the values of one class's rows from several threads into one
+    array: (order, ptr), the classes being rows-indices order[ptr[k]:ptr[k+1]],
+    each in increasing order."""
+    rows = np.asarray(rows, dtype=np.int64)
+    nrow = len(rows)
+    if nrow == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64)
+    start, end = tree["start"][rows], tree["end"][rows]
+    counts = end - start
+    owner = np.repeat(np.arange(nrow), counts)
+    k = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    elems = tree["perm"][np.repeat(start, counts) + k]
+    R = sp.csr_matrix((np.ones(3 * len(elems), dtype=np.int32),
+                       (np.repeat(owner, 3), t[elems].ravel())), shape=(nrow, nv))
+    G = (R @ R.T).tocsr()
+    colour = hk.greedy_colouring(G.indptr.astype(np.int64), G.indices.astype(np.int64))
+    order = np.argsort(colour, kind="stable")
+    ptr = np.concatenate([[0], np.cumsum(np.bincount(colour))]).astype(np.int64)
+    return order.astype(np.int64), ptr
+
+
 def _restrict(A: sp.csr_matrix, free: np.ndarray) -> sp.csr_matrix:
     """A[free][:, free] for increasing ``free``, compacting A's arrays in place:
     no second copy of the values at the peak.  A is spent, and no other view
@@ -669,6 +694,46 @@ def _restrict_arrays(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray,
                         copy=False)
     out.has_sorted_indices = sorted_indices
     return out
+
+
+def _near_field(p, t, tree, near, quad, s, geometry, moments, *,
+                per_thread_copies: bool = False, nchunks: int | None = None):
+    """Pattern and one-sided values S of the near blocks' separated pairs
+    (:func:`fracfem._h2_kernels.near_pairs`, unscaled, the transpose not yet
+    added), their per-element far-field sums D and the rules' Lagrange values.
+
+    The threads write into one array of values, taking the row clusters a
+    class of :func:`_row_classes` at a time: the near field's peak is its
+    final size, 12 bytes per entry while nnz < 2^31, whatever the threads.
+    ``per_thread_copies`` is its reference: every row cluster in one class,
+    a private copy of the values per thread, summed in thread order
+    ((8·threads + 4) bytes per entry at the peak).  ``nchunks``: how many
+    parts the kernel's parallel loop has (default: numba's threads)."""
+    import numba
+
+    nv = len(p)
+    area2, cent, diam = geometry
+    area, mom, grad = moments
+    indptr, indices = _near_pattern(tree, near, t, nv)
+    qx, qw, lam, offs = _far_rules(p, t, quad.far_orders, area2)
+    nchunks = numba.get_num_threads() if nchunks is None else int(nchunks)
+    rows, ptr, cols = near_lists(near)
+    if per_thread_copies:
+        order = np.arange(len(rows), dtype=np.int64)
+        cptr = np.array([0, len(rows)], dtype=np.int64)
+        data = np.zeros((nchunks, len(indices)))
+    else:
+        order, cptr = _row_classes(tree, rows, t, nv)
+        data = np.zeros((1, len(indices)))
+    D = hk.near_pairs(t, tree["perm"], tree["start"], tree["end"], ptr, rows, cols,
+                      cent, diam, area, mom, grad, qx, qw, lam, offs,
+                      np.asarray(quad.far_thresholds, dtype=np.float64), True, s,
+                      indptr, indices, nv, order, cptr, nchunks, data)
+    del qx, qw
+    for k in range(1, data.shape[0]):
+        data[0] += data[k]
+    data.resize(len(indices), refcheck=False)   # the first row, in place
+    return indptr, indices, data, D, lam
 
 
 def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
@@ -719,23 +784,8 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     tim["trees"] = time.perf_counter() - t0
 
     t1 = time.perf_counter()
-    indptr, indices = _near_pattern(tree, near, t, nv)
-    qx, qw, lam, offs = _far_rules(p, t, quad.far_orders, area2)
-    import numba
-    nchunks = numba.get_num_threads()
-    rows, ptr, cols = near_lists(near)
-    # one private copy of the values per thread (no write races), summed into
-    # the first and shrunk in place: the near field's peak is (8·threads + 4)
-    # bytes per entry, its final size 12 while nnz < 2^31 (benchmarks/assembly-memory.md)
-    data = np.zeros((nchunks, len(indices)))
-    D = hk.near_pairs(t, tree["perm"], tree["start"], tree["end"], ptr, rows, cols,
-                      cent, diam, area, mom, grad, qx, qw, lam, offs,
-                      np.asarray(quad.far_thresholds, dtype=np.float64), True, s,
-                      indptr, indices, nv, data)
-    del qx, qw
-    for k in range(1, nchunks):
-        data[0] += data[k]
-    data.resize(len(indices), refcheck=False)   # the first row, in place
+    indptr, indices, data, D, lam = _near_field(p, t, tree, near, quad, s, geometry,
+                                                (area, mom, grad))
     hk.symmetrize_csr_inplace(indptr, indices, data)
     data *= c
     D = D.sum(axis=0)

@@ -311,6 +311,45 @@ def test_in_place_symmetrisation_matches_its_reference():
                                (S + S.T).toarray(), rtol=0, atol=1e-15)
 
 
+def test_scatter_csr_adds_into_the_pattern_and_refuses_entries_outside_it():
+    """scatter_csr sums local matrices into a CSR pattern as a dense scatter
+    does, repeated node pairs included; an entry the pattern lacks (between
+    two of its columns, past its last, in an empty row) raises instead of
+    landing on a neighbour."""
+    import scipy.sparse as sp
+
+    from fracfem import _h2_kernels as hk
+
+    rng = np.random.default_rng(11)
+    n = 40
+    nodes = rng.integers(0, n - 1, size=(25, 3))          # row n - 1 stays empty
+    local = rng.standard_normal((25, 3, 3))
+    rows = np.repeat(nodes, 3, axis=1).ravel()
+    cols = np.tile(nodes, (1, 3)).ravel()
+    P = sp.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(n, n))
+    P.sort_indices()
+    indptr, indices = P.indptr.astype(np.int64), P.indices.astype(np.int32)
+    data = np.zeros(P.nnz)
+    hk.scatter_csr(indptr, indices, data, nodes, local, 0.5)
+    dense = np.zeros((n, n))
+    for k in range(len(nodes)):
+        for a in range(3):
+            for b in range(3):
+                dense[nodes[k, a], nodes[k, b]] += 0.5 * local[k, a, b]
+    got = sp.csr_matrix((data, indices, indptr), shape=(n, n)).toarray()
+    np.testing.assert_allclose(got, dense, rtol=1e-14, atol=1e-15)
+
+    i = int(np.argmax(np.diff(indptr)))                    # a row with a gap
+    row = indices[indptr[i]:indptr[i + 1]]
+    gap = next(j for j in range(row[0], row[-1]) if j not in row)
+    before = data.copy()
+    for a, b in [(i, gap), (i, int(row[-1]) + 1), (n - 1, 0)]:
+        assert P[a, b] == 0
+        with pytest.raises(IndexError, match="outside the near-field pattern"):
+            hk._csr_add(indptr, indices, data, a, b, 1.0)
+    np.testing.assert_array_equal(data, before)
+
+
 def test_near_pattern_is_the_node_pairs_of_the_near_blocks():
     """The near field's pattern is exactly the node pairs of the elements of
     every near block (from the tree, pair by pair), with sorted int32 column
@@ -419,3 +458,44 @@ def test_leaf_matrix_product_matches_leaf_kernels(name, s, leaf):
     x = X[:, 0]
     np.testing.assert_allclose(bare @ x, op @ x, rtol=0, atol=1e-13 * np.abs(op @ x).max())
     assert bare.nbytes < op.nbytes
+
+
+def test_near_field_in_row_classes_equals_per_thread_copies():
+    """The near field written by all threads into one array, a class of row
+    clusters at a time, equals its reference (every thread a private copy,
+    summed) to round-off, and does not depend on how many parts the parallel
+    loop has; within a class no two row clusters share a node."""
+    from fracfem import compressed as C
+    from fracfem.assembly import QuadratureOptions, mesh_arrays
+    from fracfem.meshes import disk_graded_aniso
+
+    p, t = mesh_arrays(disk_graded_aniso(0.1))
+    geometry = C._element_geometry(p, t)
+    moments = C._element_moments(p, t)
+    tree = C.cluster_tree(geometry[1], geometry[2], 8)
+    quad = QuadratureOptions()
+    _, near = C.block_tree(tree, tree, 1.0, float(quad.far_thresholds[0]))
+    args = (p, t, tree, near, quad, 0.4, geometry, moments)
+
+    ref = C._near_field(*args, per_thread_copies=True, nchunks=3)
+    runs = [C._near_field(*args, nchunks=k) for k in (1, 2, 5)]
+    for r in runs:
+        np.testing.assert_array_equal(r[0], ref[0])
+        np.testing.assert_array_equal(r[1], ref[1])
+        np.testing.assert_array_equal(r[2], runs[0][2])      # bitwise, whatever the parts
+        scale = np.abs(ref[2]).max()
+        assert np.abs(r[2] - ref[2]).max() <= 1e-14 * scale
+        np.testing.assert_allclose(r[3].sum(axis=0), ref[3].sum(axis=0), rtol=1e-12, atol=0)
+    assert np.abs(ref[2]).max() > 0
+
+    rows, _, _ = C.near_lists(near)
+    order, ptr = C._row_classes(tree, rows, t, len(p))
+    assert sorted(order.tolist()) == list(range(len(rows))) and ptr[-1] == len(rows)
+    assert len(ptr) - 1 >= 2                                # neighbours do exist
+    for k in range(len(ptr) - 1):
+        seen = set()
+        for ri in order[ptr[k]:ptr[k + 1]]:
+            c = rows[ri]
+            nodes = set(t[tree["perm"][tree["start"][c]:tree["end"][c]]].ravel().tolist())
+            assert not nodes & seen
+            seen |= nodes
