@@ -14,10 +14,13 @@ and 10), ``uniform<L>`` disk_uniform(L), ``graded<h>`` disk_graded_aniso(h).
     python benchmarks/assembly_memory.py ex2-step7 --compare <checkout> --md benchmarks/assembly-memory.md
     python benchmarks/assembly_memory.py ex2-step7 --kappa-chunk 262144
     python benchmarks/assembly_memory.py ex2-step7 --compare /path/to/other/checkout
+    python benchmarks/assembly_memory.py ex2-step7 --threads 8 --compare <checkout>
 
 ``--compare`` measures fracfem of another checkout (its root) as well, to set one
 version of the code beside another on the same mesh; ``--kappa-chunk`` sets
-``fracfem.assembly.KAPPA_CHUNK`` (points per κ evaluation).  The sampling
+``fracfem.assembly.KAPPA_CHUNK`` (points per κ evaluation); ``--threads`` numba's
+threads (NUMBA_NUM_THREADS of the case's process; more than the cores is allowed,
+to see how memory grows with the threads of a larger machine).  The sampling
 thread can miss a short peak: every 10 ms, and not at all while a serial numba
 kernel holds the interpreter (the parallel ones release it).  A phase without a
 sample shows nan.  Run a checkout once before measuring it, so that its numba
@@ -91,7 +94,9 @@ def run_case(name: str, kappa_chunk: int | None) -> dict:
     for k in PHASES[:-1]:
         ends.append(ends[-1] + tim[k])
     ends.append(t1)
-    row = dict(mesh=name, kappa_chunk=assembly.KAPPA_CHUNK, dofs=op.shape[0],
+    import numba
+    row = dict(mesh=name, kappa_chunk=assembly.KAPPA_CHUNK, threads=numba.get_num_threads(),
+               dofs=op.shape[0],
                near_nnz=op.info["near_nnz"], held_mb=op.nbytes / 2**20,
                assembly_s=t1 - t0)
     for i, ph in enumerate(PHASES):
@@ -120,11 +125,14 @@ def main(argv=None):
     ap.add_argument("--kappa-chunk", type=int, default=None)
     ap.add_argument("--compare", type=Path, default=None,
                     help="root of another checkout whose fracfem is measured as well")
+    ap.add_argument("--threads", type=int, default=None)
     ap.add_argument("--md", type=Path, default=None)
     ap.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.kappa_chunk is not None and a.kappa_chunk < 1:
         ap.error(f"--kappa-chunk {a.kappa_chunk}: must be a positive number of points")
+    if a.threads is not None and not 1 <= a.threads <= 256:
+        ap.error(f"--threads {a.threads}: must be in [1, 256]")
     if a.case:
         print(json.dumps(run_case(a.meshes[0], a.kappa_chunk)))
         return
@@ -140,6 +148,8 @@ def main(argv=None):
     for name in a.meshes:
         for code in checkouts:
             env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(code), str(ROOT)]))
+            if a.threads:
+                env["NUMBA_NUM_THREADS"] = str(a.threads)
             cmd = [sys.executable, __file__, name, "--case"]
             if a.kappa_chunk:
                 cmd += ["--kappa-chunk", str(a.kappa_chunk)]
@@ -152,19 +162,22 @@ def main(argv=None):
             rows.append(row)
             print(f"{name} ({row['code']}): {row['dofs']} DOFs, held {row['held_mb']:.0f} MB, "
                   f"peak {row['peak_mb']:.0f} MB above the start ({row['peak_phase']}), "
-                  f"{row['assembly_s']:.1f} s", flush=True)
+                  f"{row['assembly_s']:.1f} s on {row['threads']} threads", flush=True)
     if a.md:
-        cols = ["mesh", "code", "dofs", "near_nnz", "held_mb", "phase", "phase_s", "phase_mb"]
+        cols = ["mesh", "code", "threads", "dofs", "near_nnz", "held_mb", "phase", "phase_s",
+                "phase_mb"]
         lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
         for r in rows:
             for ph in PHASES + ("whole",):
                 sec = r["assembly_s"] if ph == "whole" else r[f"{ph}_s"]
                 mb = r["peak_mb"] if ph == "whole" else r[f"{ph}_mb"]
-                lines.append(f"| {r['mesh']} | {r['code']} | {r['dofs']} | {r['near_nnz']} | "
+                lines.append(f"| {r['mesh']} | {r['code']} | {r['threads']} | {r['dofs']} | "
+                             f"{r['near_nnz']} | "
                              f"{r['held_mb']:.0f} | {ph} | {sec:.1f} | {mb:.0f} |")
         head = (f"# Compressed operator: memory by assembly phase\n\n"
                 f"`python benchmarks/assembly_memory.py {' '.join(a.meshes)}"
                 + (f" --kappa-chunk {a.kappa_chunk}" if a.kappa_chunk else "")
+                + (f" --threads {a.threads}" if a.threads else "")
                 + (" --compare <checkout>" if a.compare else "")
                 + f"`, {datetime.date.today()}, 1-minute load average {load:.1f} at the "
                   f"start (2 cores). `phase_mb`: the largest resident set seen in the phase, "

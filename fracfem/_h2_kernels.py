@@ -456,8 +456,8 @@ def csr_rmatvec(indptr, indices, data, g, ncols, nchunks):  # pragma: no cover
 def _csr_position(indptr, indices, i, j):  # pragma: no cover
     """Position of entry (i, j) in a CSR pattern with sorted indices that holds it
     (not checked: on a pattern without (i, j) it is the first entry of row i
-    past column j, or the row's last entry, or the next row's first when row i
-    is empty)."""
+    past column j, or the row's last entry, or indptr[i] when row i is empty:
+    the next row's first, or nnz past the last row)."""
     lo = indptr[i]
     hi = indptr[i + 1] - 1
     while lo < hi:
@@ -518,16 +518,19 @@ def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, 
     it in place) is either one array of zeros of shape (1, nnz), written by
     every thread, which is race-free when no two row clusters of a class share
     a node (:func:`greedy_colouring`), or per-thread copies (nchunks, nnz) to
-    be summed, for any classes.  Returns D (nchunks, nt, nq_total + 4) as in
-    far_pairs.
+    be summed, for any classes.  Race-free only because every entry
+    nodes(σ) × nodes(τ) is in the pattern: a missing one would be written
+    through a stale position, possibly into another thread's row.  Returns D
+    (nchunks, nt, nq_total + 4) as in far_pairs: per chunk, since it gathers
+    on the elements of both clusters.
     """
     nt = t.shape[0]
     nlev = offsets.shape[0] - 1
     nqt = offsets[nlev]
     expo = -1.0 - s
     alpha = -2.0 - 2.0 * s
-    if data.shape[0] != 1 and data.shape[0] != nchunks:
-        raise ValueError("data must have one row or one per chunk")
+    if nchunks < 1 or (data.shape[0] != 1 and data.shape[0] != nchunks):
+        raise ValueError("nchunks must be positive and data have one row or one per chunk")
     copy_stride = 0 if data.shape[0] == 1 else 1   # shared array, or one per chunk
     D = np.zeros((nchunks, nt, nqt + 4))
     W_all = np.empty((nchunks, 64, 64))

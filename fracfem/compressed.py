@@ -703,8 +703,12 @@ def _near_field(p, t, tree, near, quad, s, geometry, moments, *,
     added), their per-element far-field sums D and the rules' Lagrange values.
 
     The threads write into one array of values, taking the row clusters a
-    class of :func:`_row_classes` at a time: the near field's peak is its
-    final size, 12 bytes per entry while nnz < 2^31, whatever the threads.
+    class of :func:`_row_classes` at a time: the values' peak is their final
+    size, 12 bytes per entry while nnz < 2^31, whatever the threads, and they
+    do not depend on the threads.  D is per thread (8·(nq_total + 4) bytes per
+    element each, where the values take 12 bytes per entry and an element has
+    hundreds to thousands of them), as are the positions of three rows (24
+    bytes per node each).
     ``per_thread_copies`` is its reference: every row cluster in one class,
     a private copy of the values per thread, summed in thread order
     ((8·threads + 4) bytes per entry at the peak).  ``nchunks``: how many
@@ -717,6 +721,8 @@ def _near_field(p, t, tree, near, quad, s, geometry, moments, *,
     indptr, indices = _near_pattern(tree, near, t, nv)
     qx, qw, lam, offs = _far_rules(p, t, quad.far_orders, area2)
     nchunks = numba.get_num_threads() if nchunks is None else int(nchunks)
+    if nchunks < 1:
+        raise ValueError(f"nchunks={nchunks!r} must be at least 1")
     rows, ptr, cols = near_lists(near)
     if per_thread_copies:
         order = np.arange(len(rows), dtype=np.int64)

@@ -365,8 +365,10 @@ GROUPS = [
         "cumulative_s": "seconds from the start of Algorithm B to the end of the step",
     }),
     ("Assembly memory by phase (`benchmarks/assembly-memory.md`, "
-     "`benchmarks/assembly-memory-large.md`)", False, {
+     "`benchmarks/assembly-memory-threads.md`, `benchmarks/assembly-memory-large.md`)", False, {
         "code": "the commit whose fracfem is measured ('+': with changes to fracfem/)",
+        "threads": "numba's threads in the assembly (more than the machine's cores: to see "
+                   "how memory grows with them)",
         "near_nnz": "entries of the near field's sparse matrix on the free nodes",
         "held_mb": "memory of the finished compressed operator, MiB",
         "phase": "phase of the assembly (as `t_trees` … `t_exterior`, then the restriction "
