@@ -774,46 +774,6 @@ def triangle_gaps(p, t, pairs):  # pragma: no cover
     return out
 
 
-@njit(cache=True, parallel=True)
-def far_rule_blocks(t, pairs, cent, diam, qx, qw, lam, offsets, thresholds, s, out):  # pragma: no cover
-    """6 × 6 matrices that :func:`fracfem._kernels.far_pairs` assembles for the
-    separated pairs (m, 2) with its product Gauss levels (same level choice;
-    pairs of the Taylor level must not be passed)."""
-    nlev = offsets.shape[0] - 1
-    expo = -1.0 - s
-    for k in prange(pairs.shape[0]):
-        T, T2 = pairs[k, 0], pairs[k, 1]
-        dx = cent[T, 0] - cent[T2, 0]
-        dy = cent[T, 1] - cent[T2, 1]
-        hm = max(diam[T], diam[T2])
-        r2 = dx * dx + dy * dy
-        lev = nlev - 1
-        for L in range(nlev - 1):
-            if r2 >= thresholds[L] * thresholds[L] * hm * hm:
-                lev = L
-                break
-        q0 = offsets[lev]
-        nq = offsets[lev + 1] - q0
-        for a in range(6):
-            for b in range(6):
-                out[k, a, b] = 0.0
-        for qq in range(nq):
-            for r in range(nq):
-                ex = qx[T, q0 + qq, 0] - qx[T2, q0 + r, 0]
-                ey = qx[T, q0 + qq, 1] - qx[T2, q0 + r, 1]
-                W = qw[T, q0 + qq] * qw[T2, q0 + r] * (ex * ex + ey * ey) ** expo
-                for a in range(3):
-                    la = lam[q0 + qq, a]
-                    ma = lam[q0 + r, a]
-                    for b in range(3):
-                        out[k, a, b] += W * la * lam[q0 + qq, b]
-                        out[k, 3 + a, 3 + b] += W * ma * lam[q0 + r, b]
-                        out[k, a, 3 + b] -= W * la * lam[q0 + r, b]
-        for a in range(3):
-            for b in range(3):
-                out[k, 3 + b, a] = out[k, a, 3 + b]
-
-
 @njit(cache=True)
 def _near_boundary_rule(PT, bv, nbv, gx, gw, q):  # pragma: no cover
     """Points (m, 2) and weights (summing to |T|) on a thin triangle T close to

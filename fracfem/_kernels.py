@@ -65,6 +65,101 @@ def singular_pairs(p, nodes, tp, signs, zq, wq, amat, s, out):  # pragma: no cov
                 out[k, a, b] = scale * acc
 
 
+@njit(cache=True)
+def pair_level(T, T2, cent, diam, thresholds, nlev):  # pragma: no cover
+    """(level, dx, dy, r2) of the separated pair (T, T2): dx, dy, r2 from
+    c_T − c_T', and the first level L whose ratio threshold[L] the separation
+    |c_T − c_T'| / max(diam_T, diam_T') reaches (the last, most accurate
+    level when it reaches none)."""
+    dx = cent[T, 0] - cent[T2, 0]
+    dy = cent[T, 1] - cent[T2, 1]
+    hm = max(diam[T], diam[T2])
+    r2 = dx * dx + dy * dy
+    lev = nlev - 1
+    for L in range(nlev - 1):
+        if r2 >= thresholds[L] * thresholds[L] * hm * hm:
+            lev = L
+            break
+    return lev, dx, dy, r2
+
+
+@njit(cache=True)
+def separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw, lam, offsets,
+                   taylor, expo, alpha, Dc, W, V, X):  # pragma: no cover
+    """One separated pair (T, T2) at level ``lev`` (:func:`pair_level`): X[a, b]
+    ← what it adds to entry (t[T, a], t[T2, b]) of the one-sided part, and its
+    sums into the rows T, T2 of one chunk's D (``Dc``), as :func:`far_pairs`
+    describes; W (64, 64) and V (3, 64) are work arrays."""
+    q0 = offsets[lev]
+    nq = offsets[lev + 1] - q0
+    if taylor and lev == 0:
+        # second-order Taylor-corrected centroid rule: expand k
+        # about D = c_T − c_T' with the elements' second moments
+        # I_T, one kernel evaluation.  Error O((h/d)^3) in the
+        # quadratic form of smooth u; single entries O(h/d) to
+        # O((h/d)^2) (dropped third-moment terms).
+        k = r2 ** expo
+        kr = alpha * k / r2
+        gx = kr * dx
+        gy = kr * dy
+        hxx = kr * (1.0 + (alpha - 2.0) * dx * dx / r2)
+        hxy = kr * (alpha - 2.0) * dx * dy / r2
+        hyy = kr * (1.0 + (alpha - 2.0) * dy * dy / r2)
+        A1 = area[T]
+        A2 = area[T2]
+        tr1 = hxx * mom[T, 0] + 2.0 * hxy * mom[T, 1] + hyy * mom[T, 2]
+        tr2 = hxx * mom[T2, 0] + 2.0 * hxy * mom[T2, 1] + hyy * mom[T2, 2]
+        C0 = A1 * A2 * k + 0.5 * (A2 * tr1 + A1 * tr2)
+        a1x = A2 * (mom[T, 0] * gx + mom[T, 1] * gy)
+        a1y = A2 * (mom[T, 1] * gx + mom[T, 2] * gy)
+        a2x = A1 * (mom[T2, 0] * gx + mom[T2, 1] * gy)
+        a2y = A1 * (mom[T2, 1] * gx + mom[T2, 2] * gy)
+        Dc[T, 0] += C0
+        Dc[T2, 0] += C0
+        Dc[T, 1] += a1x
+        Dc[T, 2] += a1y
+        Dc[T2, 1] -= a2x
+        Dc[T2, 2] -= a2y
+        Dc[T, 3] += k * A2
+        Dc[T2, 3] += k * A1
+        for a in range(3):
+            pa = (a1x * grad[T, a, 0] + a1y * grad[T, a, 1]) / 3.0
+            for b in range(3):
+                pb = (a2x * grad[T2, b, 0] + a2y * grad[T2, b, 1]) / 3.0
+                X[a, b] = -(C0 / 9.0 - pb + pa)
+        return
+    # W_qr = w_q w_r k(x_q − y_r)
+    for q in range(nq):
+        xq0 = qx[T, q0 + q, 0]
+        xq1 = qx[T, q0 + q, 1]
+        wqq = qw[T, q0 + q]
+        for r in range(nq):
+            ex = xq0 - qx[T2, q0 + r, 0]
+            ey = xq1 - qx[T2, q0 + r, 1]
+            W[q, r] = wqq * qw[T2, q0 + r] * (ex * ex + ey * ey) ** expo
+    for q in range(nq):
+        sq = 0.0
+        sr = 0.0
+        for r in range(nq):
+            sq += W[q, r]
+            sr += W[r, q]
+        Dc[T, 4 + q0 + q] += sq
+        Dc[T2, 4 + q0 + q] += sr
+    # off-diagonal block: −Σ W_qr λ_a(x_q) λ_b(y_r)
+    for a in range(3):
+        for r in range(nq):
+            acc = 0.0
+            for q in range(nq):
+                acc += lam[q0 + q, a] * W[q, r]
+            V[a, r] = acc
+    for a in range(3):
+        for b in range(3):
+            acc = 0.0
+            for r in range(nq):
+                acc += V[a, r] * lam[q0 + r, b]
+            X[a, b] = -acc
+
+
 @njit(cache=True, parallel=True)
 def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
               taylor, s, nv, nchunks):  # pragma: no cover
@@ -94,6 +189,8 @@ def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
     for c in prange(nchunks):
         W = np.empty((64, 64))
         V = np.empty((3, 64))
+        Xl = np.empty((3, 3))
+        Dc = D[c]
         for T in range(c, nt, nchunks):
             i0, i1, i2 = t[T, 0], t[T, 1], t[T, 2]
             for T2 in range(T + 1, nt):
@@ -101,86 +198,129 @@ def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
                 if (i0 == j0 or i0 == j1 or i0 == j2 or i1 == j0 or i1 == j1
                         or i1 == j2 or i2 == j0 or i2 == j1 or i2 == j2):
                     continue
-                dx = cent[T, 0] - cent[T2, 0]
-                dy = cent[T, 1] - cent[T2, 1]
-                hm = max(diam[T], diam[T2])
-                r2 = dx * dx + dy * dy
-                lev = nlev - 1
-                for L in range(nlev - 1):
-                    if r2 >= thresholds[L] * thresholds[L] * hm * hm:
-                        lev = L
-                        break
-                q0 = offsets[lev]
-                nq = offsets[lev + 1] - q0
-                if taylor and lev == 0:
-                    # second-order Taylor-corrected centroid rule: expand k
-                    # about D = c_T − c_T' with the elements' second moments
-                    # I_T, one kernel evaluation.  Error O((h/d)^3) in the
-                    # quadratic form of smooth u; single entries O(h/d) to
-                    # O((h/d)^2) (dropped third-moment terms).
-                    k = r2 ** expo
-                    kr = alpha * k / r2
-                    gx = kr * dx
-                    gy = kr * dy
-                    hxx = kr * (1.0 + (alpha - 2.0) * dx * dx / r2)
-                    hxy = kr * (alpha - 2.0) * dx * dy / r2
-                    hyy = kr * (1.0 + (alpha - 2.0) * dy * dy / r2)
-                    A1 = area[T]
-                    A2 = area[T2]
-                    tr1 = hxx * mom[T, 0] + 2.0 * hxy * mom[T, 1] + hyy * mom[T, 2]
-                    tr2 = hxx * mom[T2, 0] + 2.0 * hxy * mom[T2, 1] + hyy * mom[T2, 2]
-                    C0 = A1 * A2 * k + 0.5 * (A2 * tr1 + A1 * tr2)
-                    a1x = A2 * (mom[T, 0] * gx + mom[T, 1] * gy)
-                    a1y = A2 * (mom[T, 1] * gx + mom[T, 2] * gy)
-                    a2x = A1 * (mom[T2, 0] * gx + mom[T2, 1] * gy)
-                    a2y = A1 * (mom[T2, 1] * gx + mom[T2, 2] * gy)
-                    D[c, T, 0] += C0
-                    D[c, T2, 0] += C0
-                    D[c, T, 1] += a1x
-                    D[c, T, 2] += a1y
-                    D[c, T2, 1] -= a2x
-                    D[c, T2, 2] -= a2y
-                    D[c, T, 3] += k * A2
-                    D[c, T2, 3] += k * A1
-                    for a in range(3):
-                        ia = t[T, a]
-                        pa = (a1x * grad[T, a, 0] + a1y * grad[T, a, 1]) / 3.0
-                        for b in range(3):
-                            pb = (a2x * grad[T2, b, 0] + a2y * grad[T2, b, 1]) / 3.0
-                            X[c, ia, t[T2, b]] -= C0 / 9.0 - pb + pa
-                    continue
-                # W_qr = w_q w_r k(x_q − y_r)
-                for q in range(nq):
-                    xq0 = qx[T, q0 + q, 0]
-                    xq1 = qx[T, q0 + q, 1]
-                    wqq = qw[T, q0 + q]
-                    for r in range(nq):
-                        ex = xq0 - qx[T2, q0 + r, 0]
-                        ey = xq1 - qx[T2, q0 + r, 1]
-                        W[q, r] = wqq * qw[T2, q0 + r] * (ex * ex + ey * ey) ** expo
-                for q in range(nq):
-                    sq = 0.0
-                    sr = 0.0
-                    for r in range(nq):
-                        sq += W[q, r]
-                        sr += W[r, q]
-                    D[c, T, 4 + q0 + q] += sq
-                    D[c, T2, 4 + q0 + q] += sr
-                # off-diagonal block: −Σ W_qr λ_a(x_q) λ_b(y_r)
-                for a in range(3):
-                    for r in range(nq):
-                        acc = 0.0
-                        for q in range(nq):
-                            acc += lam[q0 + q, a] * W[q, r]
-                        V[a, r] = acc
+                lev, dx, dy, r2 = pair_level(T, T2, cent, diam, thresholds, nlev)
+                separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw, lam,
+                               offsets, taylor, expo, alpha, Dc, W, V, Xl)
                 for a in range(3):
                     ia = t[T, a]
                     for b in range(3):
-                        acc = 0.0
-                        for r in range(nq):
-                            acc += V[a, r] * lam[q0 + r, b]
-                        X[c, ia, t[T2, b]] -= acc
+                        X[c, ia, t[T2, b]] += Xl[a, b]
     return X, D
+
+
+@njit(cache=True, parallel=True)
+def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, diam,
+               area, mom, grad, qx, qw, lam, offsets, thresholds, taylor, s,
+               indptr, indices, nv, row_order, colour_ptr, nchunks,
+               data):  # pragma: no cover
+    """Separated element pairs of the near blocks with the dense assembly's
+    rules (:func:`fracfem._kernels.far_pairs`); touching pairs are skipped.
+
+    Near blocks sorted by row cluster σ (near_ptr[i]:near_ptr[i+1] are the
+    blocks of row near_rows[i]).  Each unordered pair once: blocks with σ < τ
+    whole, σ = τ for T < T'.  The one-sided part X of a pair (T, T') goes to
+    entry (t[T, a], t[T', b]) of the CSR data, found through a column →
+    position map of the three rows of T (the pattern holds nodes(σ) × nodes(τ)
+    of every near block); add the transpose with :func:`symmetrize_csr_inplace`.
+
+    The row clusters come in classes, row_order[colour_ptr[k]:colour_ptr[k+1]]
+    (indices into near_rows), taken one after the other; ``nchunks`` threads
+    share each class.  ``data`` (allocated by the caller, so that it can shrink
+    it in place) is either one array of zeros of shape (1, nnz), written by
+    every thread, which is race-free when no two row clusters of a class share
+    a node (:func:`greedy_colouring`), or per-thread copies (nchunks, nnz) to
+    be summed, for any classes.  Race-free only because every entry
+    nodes(σ) × nodes(τ) is in the pattern: a missing one would be written
+    through a stale position, possibly into another thread's row.  Returns D
+    (nchunks, nt, nq_total + 4) as in far_pairs: per chunk, since it gathers
+    on the elements of both clusters.
+    """
+    nt = t.shape[0]
+    nlev = offsets.shape[0] - 1
+    nqt = offsets[nlev]
+    expo = -1.0 - s
+    alpha = -2.0 - 2.0 * s
+    if nchunks < 1 or (data.shape[0] != 1 and data.shape[0] != nchunks):
+        raise ValueError("nchunks must be positive and data have one row or one per chunk")
+    copy_stride = 0 if data.shape[0] == 1 else 1   # shared array, or one per chunk
+    D = np.zeros((nchunks, nt, nqt + 4))
+    W_all = np.empty((nchunks, 64, 64))
+    V_all = np.empty((nchunks, 3, 64))
+    X_all = np.empty((nchunks, 3, 3))
+    pos_all = np.zeros((nchunks, 3, nv), dtype=np.int64)
+    for col in range(colour_ptr.shape[0] - 1):
+        lo_c = colour_ptr[col]
+        hi_c = colour_ptr[col + 1]
+        for c in prange(nchunks):
+            W = W_all[c]
+            V = V_all[c]
+            X = X_all[c]
+            pos = pos_all[c]
+            Dc = D[c]
+            dc = np.int64(c) * copy_stride
+            for oi in range(lo_c + c, hi_c, nchunks):
+                ri = row_order[oi]
+                sig = near_rows[ri]
+                for k1 in range(cl_start[sig], cl_end[sig]):
+                    T = perm[k1]
+                    i0, i1, i2 = t[T, 0], t[T, 1], t[T, 2]
+                    for a in range(3):
+                        ia = t[T, a]
+                        for kk in range(indptr[ia], indptr[ia + 1]):
+                            pos[a, indices[kk]] = kk
+                    for bb in range(near_ptr[ri], near_ptr[ri + 1]):
+                        tau = near_cols[bb]
+                        if sig > tau:
+                            continue
+                        k2s = cl_start[tau]
+                        if sig == tau:
+                            k2s = k1 + 1
+                        for k2 in range(k2s, cl_end[tau]):
+                            T2 = perm[k2]
+                            j0, j1, j2 = t[T2, 0], t[T2, 1], t[T2, 2]
+                            if (i0 == j0 or i0 == j1 or i0 == j2 or i1 == j0 or i1 == j1
+                                    or i1 == j2 or i2 == j0 or i2 == j1 or i2 == j2):
+                                continue
+                            lev, dx, dy, r2 = pair_level(T, T2, cent, diam, thresholds,
+                                                         nlev)
+                            separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw,
+                                           lam, offsets, taylor, expo, alpha, Dc, W, V, X)
+                            for a in range(3):
+                                for b in range(3):
+                                    data[dc, pos[a, t[T2, b]]] += X[a, b]
+    return D
+
+
+@njit(cache=True, parallel=True)
+def far_rule_blocks(t, pairs, cent, diam, qx, qw, lam, offsets, thresholds, s, out):  # pragma: no cover
+    """6 × 6 matrices that :func:`fracfem._kernels.far_pairs` assembles for the
+    separated pairs (m, 2) with its product Gauss levels (same level choice;
+    pairs of the Taylor level must not be passed)."""
+    nlev = offsets.shape[0] - 1
+    expo = -1.0 - s
+    for k in prange(pairs.shape[0]):
+        T, T2 = pairs[k, 0], pairs[k, 1]
+        lev = pair_level(T, T2, cent, diam, thresholds, nlev)[0]
+        q0 = offsets[lev]
+        nq = offsets[lev + 1] - q0
+        for a in range(6):
+            for b in range(6):
+                out[k, a, b] = 0.0
+        for qq in range(nq):
+            for r in range(nq):
+                ex = qx[T, q0 + qq, 0] - qx[T2, q0 + r, 0]
+                ey = qx[T, q0 + qq, 1] - qx[T2, q0 + r, 1]
+                W = qw[T, q0 + qq] * qw[T2, q0 + r] * (ex * ex + ey * ey) ** expo
+                for a in range(3):
+                    la = lam[q0 + qq, a]
+                    ma = lam[q0 + r, a]
+                    for b in range(3):
+                        out[k, a, b] += W * la * lam[q0 + qq, b]
+                        out[k, 3 + a, 3 + b] += W * ma * lam[q0 + r, b]
+                        out[k, a, 3 + b] -= W * la * lam[q0 + r, b]
+        for a in range(3):
+            for b in range(3):
+                out[k, 3 + b, a] = out[k, a, 3 + b]
 
 
 @njit(cache=True)

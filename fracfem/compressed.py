@@ -644,7 +644,7 @@ def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray,
 def _row_classes(tree: dict, rows: np.ndarray, t: np.ndarray,
                  nv: int) -> tuple[np.ndarray, np.ndarray]:
     """Classes of the near blocks' row clusters ``rows`` in which no two
-    clusters have a node in common, for :func:`fracfem._h2_kernels.near_pairs`
+    clusters have a node in common, for :func:`fracfem._kernels.near_pairs`
     to write the values of one class's rows from several threads into one
     array: (order, ptr), the classes being rows-indices order[ptr[k]:ptr[k+1]],
     each in increasing order."""
@@ -699,7 +699,7 @@ def _restrict_arrays(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray,
 def _near_field(p, t, tree, near, quad, s, geometry, moments, *,
                 per_thread_copies: bool = False, nchunks: int | None = None):
     """Pattern and one-sided values S of the near blocks' separated pairs
-    (:func:`fracfem._h2_kernels.near_pairs`, unscaled, the transpose not yet
+    (:func:`fracfem._kernels.near_pairs`, unscaled, the transpose not yet
     added), their per-element far-field sums D and the rules' Lagrange values.
 
     The threads write into one array of values, taking the row clusters a
@@ -731,7 +731,7 @@ def _near_field(p, t, tree, near, quad, s, geometry, moments, *,
     else:
         order, cptr = _row_classes(tree, rows, t, nv)
         data = np.zeros((1, len(indices)))
-    D = hk.near_pairs(t, tree["perm"], tree["start"], tree["end"], ptr, rows, cols,
+    D = _kernels.near_pairs(t, tree["perm"], tree["start"], tree["end"], ptr, rows, cols,
                       cent, diam, area, mom, grad, qx, qw, lam, offs,
                       np.asarray(quad.far_thresholds, dtype=np.float64), True, s,
                       indptr, indices, nv, order, cptr, nchunks, data)

@@ -14,7 +14,7 @@ import pytest
 import scipy.linalg as la
 
 import fracfem as ff
-from fracfem import _aniso_kernels, assembly
+from fracfem import _aniso_kernels, _kernels, assembly
 from fracfem.assembly import QuadratureOptions, _singular_local, mesh_arrays, stiffness_matrix
 from fracfem.quadrature import gauss01
 
@@ -165,7 +165,7 @@ def test_close_separated_pairs_match_bruteforce_and_far_blocks_match_reference()
     area2, cent, _ = assembly._element_geometry(p, t)
     qx, qw, lam, offs = assembly._far_rules(p, t, DEFAULT.far_orders, area2)
     std = np.empty((len(pairs), 6, 6))
-    _aniso_kernels.far_rule_blocks(t, pairs, cent, diam, qx, qw, lam, offs,
+    _kernels.far_rule_blocks(t, pairs, cent, diam, qx, qw, lam, offs,
                                    np.asarray(DEFAULT.far_thresholds), 0.5, std)
     for (T, T2), blk in zip(pairs[:40], std[:40]):
         order = DEFAULT.far_orders[ref._far_level(p[t[T]], p[t[T2]], DEFAULT.far_thresholds)]

@@ -502,7 +502,7 @@ def test_near_field_in_row_classes_equals_per_thread_copies():
             seen |= nodes
 
     # what makes the classes race-free: a row cluster writes only rows of its own nodes
-    from fracfem import _h2_kernels as hk
+    from fracfem import _kernels
 
     indptr, indices = C._near_pattern(tree, near, t, len(p))
     qx, qw, lam, offs = C._far_rules(p, t, quad.far_orders, geometry[0])
@@ -510,10 +510,11 @@ def test_near_field_in_row_classes_equals_per_thread_copies():
     row_of = np.repeat(np.arange(len(p)), np.diff(indptr))
     for ri in np.random.default_rng(5).choice(len(rows), 12, replace=False):
         data = np.zeros((1, len(indices)))
-        hk.near_pairs(t, tree["perm"], tree["start"], tree["end"], bptr, rows, cols,
-                      geometry[1], geometry[2], *moments, qx, qw, lam, offs,
-                      np.asarray(quad.far_thresholds, dtype=np.float64), True, 0.4,
-                      indptr, indices, len(p), np.array([ri]), np.array([0, 1]), 1, data)
+        _kernels.near_pairs(t, tree["perm"], tree["start"], tree["end"], bptr, rows, cols,
+                            geometry[1], geometry[2], *moments, qx, qw, lam, offs,
+                            np.asarray(quad.far_thresholds, dtype=np.float64), True, 0.4,
+                            indptr, indices, len(p), np.array([ri]), np.array([0, 1]), 1,
+                            data)
         c = rows[ri]
         own = set(t[tree["perm"][tree["start"][c]:tree["end"][c]]].ravel().tolist())
         written = set(row_of[data[0] != 0].tolist())
