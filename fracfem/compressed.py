@@ -732,9 +732,9 @@ def _near_field(p, t, tree, near, quad, s, geometry, moments, *,
         order, cptr = _row_classes(tree, rows, t, nv)
         data = np.zeros((1, len(indices)))
     D = _kernels.near_pairs(t, tree["perm"], tree["start"], tree["end"], ptr, rows, cols,
-                      cent, diam, area, mom, grad, qx, qw, lam, offs,
-                      np.asarray(quad.far_thresholds, dtype=np.float64), True, s,
-                      indptr, indices, nv, order, cptr, nchunks, data)
+                            cent, diam, area, mom, grad, qx, qw, lam, offs,
+                            np.asarray(quad.far_thresholds, dtype=np.float64), True, s,
+                            indptr, indices, nv, order, cptr, nchunks, data)
     del qx, qw
     for k in range(1, data.shape[0]):
         data[0] += data[k]
@@ -783,7 +783,7 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     t0 = time.perf_counter()
 
     geometry = _element_geometry(p, t)
-    area2, cent, diam = geometry
+    _, cent, diam = geometry
     area, mom, grad = _element_moments(p, t)
     tree = cluster_tree(cent, diam, int(leaf_size))
     far, near = block_tree(tree, tree, float(eta), float(quad.far_thresholds[0]))
