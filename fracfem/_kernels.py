@@ -65,7 +65,7 @@ def singular_pairs(p, nodes, tp, signs, zq, wq, amat, s, out):  # pragma: no cov
                 out[k, a, b] = scale * acc
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def pair_level(T, T2, cent, diam, thresholds, nlev):  # pragma: no cover
     """(level, dx, dy, r2) of the separated pair (T, T2): dx, dy, r2 from
     c_T − c_T', and the first level L whose ratio threshold[L] the separation
@@ -83,12 +83,12 @@ def pair_level(T, T2, cent, diam, thresholds, nlev):  # pragma: no cover
     return lev, dx, dy, r2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw, lam, offsets,
-                   taylor, expo, alpha, Dc, W, V, X):  # pragma: no cover
+                   taylor, expo, alpha, D, c, W, V, X):  # pragma: no cover
     """One separated pair (T, T2) at level ``lev`` (:func:`pair_level`): X[a, b]
     ← what it adds to entry (t[T, a], t[T2, b]) of the one-sided part, and its
-    sums into the rows T, T2 of one chunk's D (``Dc``), as :func:`far_pairs`
+    sums into the rows T, T2 of chunk c of D, as :func:`far_pairs`
     describes; W (64, 64) and V (3, 64) are work arrays."""
     q0 = offsets[lev]
     nq = offsets[lev + 1] - q0
@@ -114,14 +114,14 @@ def separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw, lam, offsets
         a1y = A2 * (mom[T, 1] * gx + mom[T, 2] * gy)
         a2x = A1 * (mom[T2, 0] * gx + mom[T2, 1] * gy)
         a2y = A1 * (mom[T2, 1] * gx + mom[T2, 2] * gy)
-        Dc[T, 0] += C0
-        Dc[T2, 0] += C0
-        Dc[T, 1] += a1x
-        Dc[T, 2] += a1y
-        Dc[T2, 1] -= a2x
-        Dc[T2, 2] -= a2y
-        Dc[T, 3] += k * A2
-        Dc[T2, 3] += k * A1
+        D[c, T, 0] += C0
+        D[c, T2, 0] += C0
+        D[c, T, 1] += a1x
+        D[c, T, 2] += a1y
+        D[c, T2, 1] -= a2x
+        D[c, T2, 2] -= a2y
+        D[c, T, 3] += k * A2
+        D[c, T2, 3] += k * A1
         for a in range(3):
             pa = (a1x * grad[T, a, 0] + a1y * grad[T, a, 1]) / 3.0
             for b in range(3):
@@ -143,8 +143,8 @@ def separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw, lam, offsets
         for r in range(nq):
             sq += W[q, r]
             sr += W[r, q]
-        Dc[T, 4 + q0 + q] += sq
-        Dc[T2, 4 + q0 + q] += sr
+        D[c, T, 4 + q0 + q] += sq
+        D[c, T2, 4 + q0 + q] += sr
     # off-diagonal block: −Σ W_qr λ_a(x_q) λ_b(y_r)
     for a in range(3):
         for r in range(nq):
@@ -190,7 +190,6 @@ def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
         W = np.empty((64, 64))
         V = np.empty((3, 64))
         Xl = np.empty((3, 3))
-        Dc = D[c]
         for T in range(c, nt, nchunks):
             i0, i1, i2 = t[T, 0], t[T, 1], t[T, 2]
             for T2 in range(T + 1, nt):
@@ -200,7 +199,7 @@ def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
                     continue
                 lev, dx, dy, r2 = pair_level(T, T2, cent, diam, thresholds, nlev)
                 separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw, lam,
-                               offsets, taylor, expo, alpha, Dc, W, V, Xl)
+                               offsets, taylor, expo, alpha, D, c, W, V, Xl)
                 for a in range(3):
                     ia = t[T, a]
                     for b in range(3):
@@ -256,7 +255,6 @@ def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, 
             V = V_all[c]
             X = X_all[c]
             pos = pos_all[c]
-            Dc = D[c]
             dc = np.int64(c) * copy_stride
             for oi in range(lo_c + c, hi_c, nchunks):
                 ri = row_order[oi]
@@ -284,7 +282,7 @@ def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, 
                             lev, dx, dy, r2 = pair_level(T, T2, cent, diam, thresholds,
                                                          nlev)
                             separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw,
-                                           lam, offsets, taylor, expo, alpha, Dc, W, V, X)
+                                           lam, offsets, taylor, expo, alpha, D, c, W, V, X)
                             for a in range(3):
                                 for b in range(3):
                                     data[dc, pos[a, t[T2, b]]] += X[a, b]
