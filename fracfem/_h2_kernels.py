@@ -10,7 +10,9 @@ functionals c0·L + c1·∇L + c2:∇²L of the basis at element centroids, so t
 Taylor terms are represented exactly up to the interpolation error.
 
 Near element pairs (inadmissible leaf blocks) are computed with exactly the
-rules of the dense assembly and added into a node-level CSR pattern.
+rules of the dense assembly (:func:`fracfem._kernels.near_pairs`, beside the
+dense kernels whose pair rule it calls) and added into a node-level CSR
+pattern, whose helpers are here.
 """
 from __future__ import annotations
 

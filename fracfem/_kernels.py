@@ -94,7 +94,7 @@ def separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw, lam, offsets
     nq = offsets[lev + 1] - q0
     if taylor and lev == 0:
         # second-order Taylor-corrected centroid rule: expand k
-        # about D = c_T − c_T' with the elements' second moments
+        # about d = c_T − c_T' with the elements' second moments
         # I_T, one kernel evaluation.  Error O((h/d)^3) in the
         # quadratic form of smooth u; single entries O(h/d) to
         # O((h/d)^2) (dropped third-moment terms).
@@ -173,7 +173,7 @@ def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
     second moments mom = (Ixx, Ixy, Iyy) about the centroid, gradients of
     the barycentric coordinates grad (nt, 3, 2)).
     Returns the off-diagonal part X (nchunks, nv, nv), to be summed over
-    chunks and added to its transpose, and D (nchunks, nt, max(4, nq_total)):
+    chunks and added to its transpose, and D (nchunks, nt, nq_total + 4):
     per quadrature point q of T, Σ_r W_qr, from which the diagonal blocks
     Σ_q D_q λ_a(x_q) λ_b(x_q) follow; for the Taylor level D[:, :, 0:4]
     hold ΣC0, Σα (2) and Σ k|T'| instead (see assembly.py).  Chunks own
@@ -184,6 +184,8 @@ def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
     nqt = offsets[nlev]
     expo = -1.0 - s
     alpha = -2.0 - 2.0 * s
+    if np.max(offsets[1:] - offsets[:-1]) > 64:
+        raise ValueError("a far-field rule has more than 64 points (the work arrays')")
     X = np.zeros((nchunks, nv, nv))
     D = np.zeros((nchunks, nt, nqt + 4))
     for c in prange(nchunks):
@@ -220,14 +222,15 @@ def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, 
     whole, σ = τ for T < T'.  The one-sided part X of a pair (T, T') goes to
     entry (t[T, a], t[T', b]) of the CSR data, found through a column →
     position map of the three rows of T (the pattern holds nodes(σ) × nodes(τ)
-    of every near block); add the transpose with :func:`symmetrize_csr_inplace`.
+    of every near block); add the transpose with
+    :func:`fracfem._h2_kernels.symmetrize_csr_inplace`.
 
     The row clusters come in classes, row_order[colour_ptr[k]:colour_ptr[k+1]]
     (indices into near_rows), taken one after the other; ``nchunks`` threads
     share each class.  ``data`` (allocated by the caller, so that it can shrink
     it in place) is either one array of zeros of shape (1, nnz), written by
     every thread, which is race-free when no two row clusters of a class share
-    a node (:func:`greedy_colouring`), or per-thread copies (nchunks, nnz) to
+    a node (:func:`fracfem._h2_kernels.greedy_colouring`), or per-thread copies (nchunks, nnz) to
     be summed, for any classes.  Race-free only because every entry
     nodes(σ) × nodes(τ) is in the pattern: a missing one would be written
     through a stale position, possibly into another thread's row.  Returns D
@@ -242,6 +245,8 @@ def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, 
     if nchunks < 1 or (data.shape[0] != 1 and data.shape[0] != nchunks):
         raise ValueError("nchunks must be positive and data have one row or one per chunk")
     copy_stride = 0 if data.shape[0] == 1 else 1   # shared array, or one per chunk
+    if np.max(offsets[1:] - offsets[:-1]) > 64:
+        raise ValueError("a far-field rule has more than 64 points (the work arrays')")
     D = np.zeros((nchunks, nt, nqt + 4))
     W_all = np.empty((nchunks, 64, 64))
     V_all = np.empty((nchunks, 3, 64))

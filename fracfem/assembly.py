@@ -275,7 +275,7 @@ def close_pair_corrections(p, t, s, quad, geometry=None):
     qx, qw, lam, offs = _far_rules(p, t, quad.far_orders, area2)
     std = np.empty_like(loc)
     _kernels.far_rule_blocks(t, pairs, cent, diam, qx, qw, lam, offs,
-                                   np.asarray(quad.far_thresholds, dtype=np.float64), s, std)
+                             np.asarray(quad.far_thresholds, dtype=np.float64), s, std)
     log.debug("%d close separated pairs by the graded rules of thin pairs", len(pairs))
     return pairs, loc - std
 

@@ -166,7 +166,7 @@ def test_close_separated_pairs_match_bruteforce_and_far_blocks_match_reference()
     qx, qw, lam, offs = assembly._far_rules(p, t, DEFAULT.far_orders, area2)
     std = np.empty((len(pairs), 6, 6))
     _kernels.far_rule_blocks(t, pairs, cent, diam, qx, qw, lam, offs,
-                                   np.asarray(DEFAULT.far_thresholds), 0.5, std)
+                             np.asarray(DEFAULT.far_thresholds), 0.5, std)
     for (T, T2), blk in zip(pairs[:40], std[:40]):
         order = DEFAULT.far_orders[ref._far_level(p[t[T]], p[t[T2]], DEFAULT.far_thresholds)]
         assert rel(blk, ref.far_pair_reference(p[t[T]], p[t[T2]], order, 0.5)) < 1e-12
@@ -266,3 +266,24 @@ def test_kappa_on_thin_elements_at_the_boundary(ring_kappa, nb, min_aspect):
     free = ~onb[T]
     want = ref.kappa_mass_thin_reference(p, t, T, 0.75, panels=100)[np.ix_(free, free)]
     assert rel(K[T][np.ix_(free, free)], want) < 2e-5
+
+
+def test_pair_kernels_refuse_rules_larger_than_their_work_arrays():
+    """far_pairs and near_pairs keep 64 × 64 work arrays per thread: a level
+    with more points raises instead of writing past them."""
+    t = np.array([[0, 1, 2], [3, 4, 5]])
+    nt, nq = 2, 65
+    cent, diam, area = np.zeros((nt, 2)), np.ones(nt), np.ones(nt)
+    mom, grad = np.zeros((nt, 3)), np.zeros((nt, 3, 2))
+    qx, qw, lam = np.zeros((nt, nq, 2)), np.zeros((nt, nq)), np.zeros((nq, 3))
+    offsets, thresholds = np.array([0, nq]), np.zeros(0)
+    with pytest.raises(ValueError, match="more than 64 points"):
+        _kernels.far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets,
+                           thresholds, False, 0.5, 6, 1)
+    i1 = np.array([0, 1])
+    with pytest.raises(ValueError, match="more than 64 points"):
+        _kernels.near_pairs(t, np.arange(nt), np.array([0]), np.array([2]), i1,
+                            np.array([0]), np.array([0]), cent, diam, area, mom, grad,
+                            qx, qw, lam, offsets, thresholds, False, 0.5,
+                            np.zeros(7, dtype=np.int64), np.zeros(0, dtype=np.int32), 6,
+                            np.array([0]), i1, 1, np.zeros((1, 0)))
