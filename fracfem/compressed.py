@@ -614,11 +614,9 @@ def _far_pass(f: dict, src: np.ndarray, K: np.ndarray | None = None,
     return out
 
 
-def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray,
-                  nv: int) -> tuple[np.ndarray, np.ndarray]:
-    """Node pairs of the near blocks (structure only): CSR ``indptr`` (int64)
-    and sorted ``indices`` (int32 while the node numbers allow), both arrays of
-    their own, so that :func:`_restrict_arrays` compacts them in place."""
+def _leaf_nodes(tree: dict, t: np.ndarray, nv: int) -> sp.csr_matrix:
+    """Cluster × node incidence (int8, ones) of the leaf clusters: row c holds
+    the nodes of the elements of leaf c; the rows of other clusters are empty."""
     nc = len(tree["start"])
     perm = tree["perm"]
     owner = np.empty(len(t), dtype=np.int64)
@@ -630,6 +628,16 @@ def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray,
     inc.data[:] = 1
     inc.sum_duplicates()
     inc.data[:] = 1
+    return inc
+
+
+def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray,
+                  nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """Node pairs of the near blocks (structure only): CSR ``indptr`` (int64)
+    and sorted ``indices`` (int32 while the node numbers allow), both arrays of
+    their own, so that :func:`_restrict_arrays` compacts them in place."""
+    nc = len(tree["start"])
+    inc = _leaf_nodes(tree, t, nv)
     nb = sp.csr_matrix((np.ones(len(near), dtype=np.int8), (near[:, 0], near[:, 1])),
                        shape=(nc, nc))
     pat = (inc.T.tocsr().astype(np.int32) @ (nb.astype(np.int32) @ inc.astype(np.int32)))
@@ -643,22 +651,17 @@ def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray,
 
 def _row_classes(tree: dict, rows: np.ndarray, t: np.ndarray,
                  nv: int) -> tuple[np.ndarray, np.ndarray]:
-    """Classes of the near blocks' row clusters ``rows`` in which no two
-    clusters have a node in common, for :func:`fracfem._kernels.near_pairs`
-    to write the values of one class's rows from several threads into one
-    array: (order, ptr), the classes being rows-indices order[ptr[k]:ptr[k+1]],
-    each in increasing order."""
+    """Classes of the near blocks' row clusters ``rows`` (leaves, as in
+    :func:`block_tree`) in which no two clusters have a node in common, for
+    :func:`fracfem._kernels.near_pairs` to write the values of one class's rows
+    from several threads into one array: (order, ptr), the classes being
+    rows-indices order[ptr[k]:ptr[k+1]], each in increasing order."""
     rows = np.asarray(rows, dtype=np.int64)
-    nrow = len(rows)
-    if nrow == 0:
+    if len(rows) == 0:
         return np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64)
-    start, end = tree["start"][rows], tree["end"][rows]
-    counts = end - start
-    owner = np.repeat(np.arange(nrow), counts)
-    k = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    elems = tree["perm"][np.repeat(start, counts) + k]
-    R = sp.csr_matrix((np.ones(3 * len(elems), dtype=np.int32),
-                       (np.repeat(owner, 3), t[elems].ravel())), shape=(nrow, nv))
+    if np.any(tree["child0"][rows] >= 0):
+        raise ValueError("near blocks' row clusters must be leaves (block_tree's)")
+    R = _leaf_nodes(tree, t, nv)[rows].astype(np.int32)
     G = (R @ R.T).tocsr()
     colour = hk.greedy_colouring(G.indptr.astype(np.int64), G.indices.astype(np.int64))
     order = np.argsort(colour, kind="stable")

@@ -493,6 +493,8 @@ def test_near_field_in_row_classes_equals_per_thread_copies():
     order, ptr = C._row_classes(tree, rows, t, len(p))
     assert sorted(order.tolist()) == list(range(len(rows))) and ptr[-1] == len(rows)
     assert len(ptr) - 1 >= 2                                # neighbours do exist
+    with pytest.raises(ValueError, match="must be leaves"):
+        C._row_classes(tree, np.array([0]), t, len(p))      # the root is no leaf
     for k in range(len(ptr) - 1):
         seen = set()
         for ri in order[ptr[k]:ptr[k + 1]]:
