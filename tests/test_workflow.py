@@ -210,9 +210,17 @@ def test_paper_scale_tier_has_its_own_root_and_the_paper_sizes():
         assert (copy if (ROOT / copy).exists() else fresh) in text
         assert f"workflow/data/reference/{problem}-parabolic.npz" not in text
     assert "vi_adaptive_large" not in job_counts(text)
-    # its parabolic jobs' own quadrature (parabolic.quadrature): Example 5's committed
-    # reference, made with config.yaml's, is recomputed; the elliptic ones are not
-    assert "results-paper/para/ex5/reference/h0.025.npz" in text
+    # its parabolic jobs' own quadrature (parabolic.quadrature): Example 5's reference is
+    # this tier's copy or its own run, never the default tier's copy (config.yaml's
+    # quadrature), also where its reference family's finest run is the reference
+    # (ex5_uniform_cause); the elliptic ones are the committed copies
+    copy = "workflow/data/reference/paper-scale/ex5-parabolic.npz"
+    assert (copy if (ROOT / copy).exists()
+            else "results-paper/para/ex5/reference/h0.025.npz") in text
+    assert "workflow/data/reference/ex5-parabolic.npz" not in text
+    cause = text.split("rule ex5_uniform_cause:")[1].split("output:")[0]
+    assert (copy if (ROOT / copy).exists() else "reference/h0.025.npz") in cause
+    assert "results-paper/para/ex5/uniform/L6.npz" in cause   # one level beyond the series
     rates = text.split("rule rates:")[1].split("output:")[0]
     assert "paper-figures/rates.csv" in rates
 

@@ -409,6 +409,17 @@ def para_reference_coarser(wildcards):
             for h in para_reference_h(wildcards.problem)[1]]
 
 
+def para_graded_run(problem, h):
+    """The file of a graded run of a problem's reference family made with the reference's
+    settings: the reference itself (para_reference: its committed copy when it matches)
+    where h is the reference's, else that run (rule para_solve, family reference)."""
+    tag = series_tag("graded", h)
+    if tag == para_reference_tag(problem):
+        from types import SimpleNamespace
+        return para_reference(SimpleNamespace(problem=problem))
+    return path(rules.para_solve.output.npz, problem=problem, family="reference", tag=tag)
+
+
 def vi_series_rows(wildcards):
     """The uniform and graded runs of an elliptic obstacle/friction problem."""
     block = EX2 if wildcards.problem == "ex2" else EX3

@@ -411,12 +411,10 @@ rule para_reference_check:
 # Example 5's own runs are para_solve's, the changed cases share their operators
 rule ex5_uniform_cause:
     input:
-        family=lambda w: [path(rules.para_solve.output.npz, problem="ex5",
-                               family="reference", tag=series_tag("graded", h))
-                          for h in PARA["reference"]["check_h"]],
+        family=lambda w: [para_graded_run("ex5", h) for h in PARA["reference"]["check_h"]],
         uniform=lambda w: [path(rules.para_solve.output.npz, problem="ex5", family="uniform",
                                 tag=series_tag("uniform", lv))
-                           for lv in PARA["uniform_levels"]],
+                           for lv in PARA["uniform_cause"]["uniform_levels"]],
     output:
         md=report(
             f"{OUT}/ex5-uniform-rate.md",
@@ -430,7 +428,7 @@ rule ex5_uniform_cause:
         changes={"F = 0 (no friction)": {"F": 0.0}, "u₀ = 1": {"u0": 1.0}},
         T=PARA["T"],
         grading=GRADING,
-        uniform_levels=PARA["uniform_levels"],
+        uniform_levels=PARA["uniform_cause"]["uniform_levels"],
         uniform_tau_factor=PARA["tau_factor"]["uniform"],
         family_h=PARA["reference"]["check_h"],
         reference_tau_factor=PARA["reference"]["tau_factor"],
