@@ -479,6 +479,30 @@ def test_rate_explanations_cite_only_the_time_split_tables_made():
     assert "`ex5-time-split.md` solves each graded run again" in made[2]
 
 
+def test_rate_explanations_name_a_family_run_held_to_the_reference_runs_error():
+    """A run left out because it is a run of the reference's family itself (no measured
+    uncertainty: held to the reference run's error) is named as such, not as a reference
+    too coarse; a run left out within 3× its measured uncertainty is not counted so."""
+    rates = script("rates")
+    runs = pd.DataFrame({"example": 4, "variant": "u2", "family": "graded", "s": 0.5,
+                         "tag": ["h0.4", "h0.2", "h0.1", "h0.05"],
+                         "error": [0.8, 0.6, 0.4, 0.1],
+                         "error_uncertainty": [0.03, 0.035, np.nan, 0.05],
+                         "reference_run_error": 0.14})
+    runs["reference_error"] = runs.error_uncertainty.fillna(runs.reference_run_error)
+    assert rates.unmeasured_exclusions(runs) == {(4, "u2", "graded", 0.5): 1}
+    assert rates.unmeasured_exclusions(runs.assign(error=[0.8, 0.6, 0.5, 0.1])) == {}
+    row = pd.DataFrame({"example": [4], "variant": ["u2"], "family": ["graded"], "s": [0.5],
+                        "rate": [-0.2], "paper_rate": [-0.325], "n_points": [2],
+                        "n_excluded": [2], "rate_min": [-0.3], "rate_max": [-0.1],
+                        "reference_error": [0.14]})
+    (made,) = rates.differences(row, unmeasured=rates.unmeasured_exclusions(runs))
+    assert "1 of its 4 runs is itself a run of the reference's family" in made
+    assert "as are 1 more within 3× their measured uncertainty" in made
+    (plain,) = rates.differences(row)
+    assert "itself a run" not in plain and "a finer reference is needed" in plain
+
+
 def test_pipeline_cost_sums_the_jobs_of_all_and_reads_gnu_time(tmp_path):
     """The cost table's total counts only the jobs of `all` (not a benchmark outside it, not
     a file left by an earlier configuration); the wall time and peak memory come from

@@ -5,8 +5,8 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path, write_table
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.report import (PARTIAL_RATE_TABLES, join_tiers, rate_table,
-                                     whole_numbers)
+from fracfem_workflow.report import (PARTIAL_RATE_TABLES, fit_mask, join_tiers,
+                                     rate_table, whole_numbers)
 
 
 # why a rate can differ from the paper's (README, "Differences from the paper")
@@ -95,8 +95,24 @@ def within(r):
     return span + " outside it: the reference's inaccuracy alone does not explain it."
 
 
-def differences(rates, limit=0.05, time_split=()):
-    """One sentence per row whose rate differs from the paper's by more than limit."""
+def unmeasured_exclusions(df):
+    """{(example, variant, family, s): how many of the group's runs rate_table leaves out
+    with a bound that is not their own measured uncertainty}: runs of the reference's
+    family itself, whose uncertainty the other members cannot measure (fewer than four
+    left), held to the finest run's error instead (report.with_fit_bound)."""
+    if "error_uncertainty" not in df or "reference_run_error" not in df:
+        return {}
+    d = df.assign(variant=df["variant"].astype(object).fillna("").astype(str)
+                  if "variant" in df else "")
+    out = d[~fit_mask(d.error, d.reference_error) & d.error_uncertainty.isna()
+            & d.reference_run_error.notna()]
+    return {k: len(g) for k, g in out.groupby(["example", "variant", "family", "s"])}
+
+
+def differences(rates, limit=0.05, time_split=(), unmeasured=None):
+    """One sentence per row whose rate differs from the paper's by more than limit;
+    unmeasured: :func:`unmeasured_exclusions` of the runs the rows were fitted from."""
+    unmeasured = unmeasured or {}
     lines = []
     for r in rates.itertuples(index=False):
         name = f"Example {r.example}{' (' + r.variant + ')' if r.variant else ''}"
@@ -107,7 +123,24 @@ def differences(rates, limit=0.05, time_split=()):
                          "reference energy; a finer reference is needed.")
         if pd.notna(r.paper_rate) and abs(r.rate - r.paper_rate) > limit:
             why = reason(r, time_split)
-            if r.n_excluded:
+            own = (unmeasured.get((r.example, r.variant or "", r.family, r.s), 0)
+                   if unmeasured else 0)
+            if r.n_excluded and own:
+                one = own == 1
+                why = (f"{own} of its {r.n_points + r.n_excluded} runs "
+                       f"{'is itself a run' if one else 'are themselves runs'} of the "
+                       "reference's family: the other members are too few to measure the "
+                       f"uncertainty of {'its error' if one else 'their errors'}, so "
+                       f"{'its bound is' if one else 'their bound is'} the reference run's "
+                       f"own error, within 3× of which {'it lies' if one else 'they lie'}; "
+                       f"{'it is' if one else 'they are'} left out"
+                       + ("" if own == r.n_excluded else
+                          f", as are {r.n_excluded - own} more within 3× their measured "
+                          "uncertainty (a finer reference is needed)")
+                       + f", and the rate rests on {r.n_points}. A coarser member added to "
+                       "the family would measure that uncertainty"
+                       + ("" if why == "not explained yet" else f". Also: {why}"))
+            elif r.n_excluded:
                 why = (f"{r.n_excluded} of its {r.n_points + r.n_excluded} runs lie within 3× "
                        "their reference's error (Examples 4, 5: the uncertainty of their "
                        "error) and are left out, so the rate rests on "
@@ -183,7 +216,7 @@ def main(tables, csv, md, tex, tier="default", tiers=None, absent=(), configured
     df = pd.concat(frames, ignore_index=True)
     rates = rate_table(df)
     rates["difference"] = (rates.rate - rates.paper_rate).round(3)
-    diff = differences(rates, time_split=time_split)
+    diff = differences(rates, time_split=time_split, unmeasured=unmeasured_exclusions(df))
     tiers = tiers or {}
     rates = join_tiers(rates, {n: read_tier(p) for n, p in tiers.items()})
     write_table(rates, csv)
