@@ -254,7 +254,9 @@ def close_separated_pairs(p, t, quad, geometry=None):
     d2 = np.sum((cent[pairs[:, 0]] - cent[pairs[:, 1]]) ** 2, axis=1)
     sel = gap < quad.thin_closeness
     if quad.far_orders[0] == 0 and len(quad.far_thresholds):
-        sel &= d2 < (quad.far_thresholds[0] * hm) ** 2
+        # not the Taylor level: the negation of pair_level's test, with its rounding
+        R = float(quad.far_thresholds[0])
+        sel &= ~(d2 >= R * R * hm * hm)
     return np.ascontiguousarray(pairs[sel]), gap[sel]
 
 

@@ -9,6 +9,8 @@ edge), touching pairs ≤ 2e-6, a separated pair 6e-5 (the reference's own
 accuracy there is ~1e-4).  The fixed rules miss the same quantities by
 10 %–700 %.
 """
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import scipy.linalg as la
@@ -170,6 +172,27 @@ def test_close_separated_pairs_match_bruteforce_and_far_blocks_match_reference()
     for (T, T2), blk in zip(pairs[:40], std[:40]):
         order = DEFAULT.far_orders[ref._far_level(p[t[T]], p[t[T2]], DEFAULT.far_thresholds)]
         assert rel(blk, ref.far_pair_reference(p[t[T]], p[t[T2]], order, 0.5)) < 1e-12
+
+
+def test_close_separated_pairs_are_never_of_the_taylor_level():
+    """With a Taylor threshold small enough that close pairs can reach it (1.5 h with
+    thin_closeness 1), close_separated_pairs keeps exactly the close pairs that
+    pair_level, which far_pairs and far_rule_blocks use, puts in a Gauss level."""
+    quad = ff.QuadratureOptions(far_orders=(0, 4, 8), far_thresholds=(1.5, 1.0),
+                                thin_closeness=1.0)
+    p, t = mesh_arrays(ff.disk_graded_rings(4, 3.0))
+    pairs, _ = assembly.close_separated_pairs(p, t, quad)
+    every, _ = assembly.close_separated_pairs(p, t, replace(quad, far_orders=(4, 4, 8)))
+    _, cent, diam = assembly._element_geometry(p, t)
+    thr = np.asarray(quad.far_thresholds, dtype=np.float64)
+
+    def level(T, T2):
+        return _kernels.pair_level(T, T2, cent, diam, thr, 3)[0]
+
+    taylor = [tuple(q) for q in every if level(*q) == 0]
+    assert len(taylor) > 0 and len(pairs) > 0      # both kinds occur
+    assert all(level(*q) > 0 for q in pairs)
+    assert sorted(map(tuple, pairs)) == sorted(set(map(tuple, every)) - set(taylor))
 
 
 def test_shape_regular_meshes_keep_the_fixed_rules():
