@@ -193,6 +193,18 @@ def test_close_separated_pairs_are_never_of_the_taylor_level():
     assert len(taylor) > 0 and len(pairs) > 0      # both kinds occur
     assert all(level(*q) > 0 for q in pairs)
     assert sorted(map(tuple, pairs)) == sorted(set(map(tuple, every)) - set(taylor))
+    # a pair exactly on the threshold, where d² < (R h)² and r² ≥ R·R·h·h round
+    # differently: pair_level puts it in a Gauss level, so it is kept
+    hm = 0.9046800706458055
+    dx = 1.5 * hm
+    assert not dx * dx < (1.5 * hm) ** 2 and not dx * dx >= 1.5 * 1.5 * hm * hm
+    two = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0],
+                    [0.0, -0.01], [1.0, -0.01], [0.5, -1.0]])
+    tt = np.array([[0, 1, 2], [3, 4, 5]])
+    geometry = (np.ones(2), np.array([[dx, 0.0], [0.0, 0.0]]), np.full(2, hm))
+    (pair,), _ = assembly.close_separated_pairs(two, tt, quad, geometry)
+    assert tuple(pair) == (0, 1)
+    assert _kernels.pair_level(0, 1, geometry[1], geometry[2], thr, 3)[0] == 1
 
 
 def test_shape_regular_meshes_keep_the_fixed_rules():

@@ -479,28 +479,42 @@ def test_rate_explanations_cite_only_the_time_split_tables_made():
     assert "`ex5-time-split.md` solves each graded run again" in made[2]
 
 
-def test_rate_explanations_name_a_family_run_held_to_the_reference_runs_error():
-    """A run left out because it is a run of the reference's family itself (no measured
-    uncertainty: held to the reference run's error) is named as such, not as a reference
-    too coarse; a run left out within 3× its measured uncertainty is not counted so."""
+def test_rate_explanations_name_a_run_sharing_a_mesh_with_the_reference_family():
+    """A run left out because it shares its space mesh with a member of the reference's
+    family (no measured uncertainty: held to the reference run's error) is named as such,
+    not as a reference too coarse; a run left out within 3× its measured uncertainty, a
+    run whose error is not finite, and a family that measures no uncertainty at all are
+    not counted so. Example 5 has no variant (NaN in its tables)."""
+    from fracfem_workflow.report import rate_table, with_fit_bound
     rates = script("rates")
-    runs = pd.DataFrame({"example": 4, "variant": "u2", "family": "graded", "s": 0.5,
-                         "tag": ["h0.4", "h0.2", "h0.1", "h0.05"],
-                         "error": [0.8, 0.6, 0.4, 0.1],
-                         "error_uncertainty": [0.03, 0.035, np.nan, 0.05],
-                         "reference_run_error": 0.14})
-    runs["reference_error"] = runs.error_uncertainty.fillna(runs.reference_run_error)
-    assert rates.unmeasured_exclusions(runs) == {(4, "u2", "graded", 0.5): 1}
-    assert rates.unmeasured_exclusions(runs.assign(error=[0.8, 0.6, 0.5, 0.1])) == {}
-    row = pd.DataFrame({"example": [4], "variant": ["u2"], "family": ["graded"], "s": [0.5],
-                        "rate": [-0.2], "paper_rate": [-0.325], "n_points": [2],
-                        "n_excluded": [2], "rate_min": [-0.3], "rate_max": [-0.1],
-                        "reference_error": [0.14]})
-    (made,) = rates.differences(row, unmeasured=rates.unmeasured_exclusions(runs))
-    assert "1 of its 4 runs is itself a run of the reference's family" in made
-    assert "as are 1 more within 3× their measured uncertainty" in made
-    (plain,) = rates.differences(row)
-    assert "itself a run" not in plain and "a finer reference is needed" in plain
+
+    def table(variant, error, unc):
+        return with_fit_bound(pd.DataFrame({
+            "example": 4 if variant == "u2" else 5, "variant": variant, "family": "graded",
+            "s": 0.5 if variant == "u2" else 0.6, "tag": ["h0.4", "h0.2", "h0.1", "h0.05"],
+            "dofs": [1e3, 4e3, 3e4, 2e5], "error": error, "error_uncertainty": unc,
+            "reference_error": 0.14}))
+
+    runs = pd.concat([table("u2", [0.8, 0.6, 0.4, 0.1], [0.03, 0.035, np.nan, 0.05]),
+                      table(np.nan, [0.8, 0.6, 0.4, 0.3], [0.03, 0.035, np.nan, 0.05])],
+                     ignore_index=True)
+    assert rates.unmeasured_exclusions(runs) == {(4, "u2", "graded", 0.5): 1,
+                                                 (5, "", "graded", 0.6): 1}
+    assert rates.unmeasured_exclusions(runs.assign(error=runs.error.where(
+        runs.error_uncertainty.notna()))) == {}                   # e² ≤ 0: not finite
+    three = with_fit_bound(runs.assign(error_uncertainty=np.nan).drop(
+        columns="reference_error").rename(columns={"reference_run_error": "reference_error"}))
+    assert rates.unmeasured_exclusions(three) == {}                # a family of three
+    made = rates.differences(rate_table(runs), unmeasured=rates.unmeasured_exclusions(runs))
+    (ex4,) = [m for m in made if m.startswith("- Example 4")]
+    (ex5,) = [m for m in made if m.startswith("- Example 5")]
+    assert "1 of its 4 runs shares its space mesh with a member of the reference's" in ex4
+    assert "as is 1 more within 3× its measured uncertainty" in ex4
+    assert "rests on 2" in ex4
+    assert "1 of its 4 runs shares its space mesh" in ex5 and "more within" not in ex5
+    plain = rates.differences(rate_table(runs))
+    assert not any("space mesh" in m for m in plain)
+    assert all("a finer reference is needed" in m for m in plain)
 
 
 def test_pipeline_cost_sums_the_jobs_of_all_and_reads_gnu_time(tmp_path):

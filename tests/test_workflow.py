@@ -196,9 +196,10 @@ def test_paper_scale_tier_has_its_own_root_and_the_paper_sizes():
     """config/paper.yaml computes everything under results-paper/ and writes its figures
     and tables to paper-figures/paper-scale/, runs Algorithm C and the
     finer Example 4 reference (or reuses this tier's committed copy of it, never the
-    default tier's), reuses the committed elliptic references, recomputes
-    Example 5's under its own parabolic quadrature, and its rate
-    table takes the default tier's committed rates.csv as input."""
+    default tier's), reuses the committed elliptic references, takes Example 5's from
+    its own copy made with its parabolic quadrature (or recomputes it), also for the
+    family of ex5-uniform-rate.md, and its rate table takes the default tier's committed
+    rates.csv as input."""
     _, text = dry_run("--configfile", "config/paper.yaml", "--forceall")
     outputs = re.findall(r"^\s+output: (.*)$", text, re.M)
     assert outputs and all(o.startswith(("results-paper/", "paper-figures/paper-scale/"))

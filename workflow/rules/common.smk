@@ -415,8 +415,7 @@ def para_graded_run(problem, h):
     where h is the reference's, else that run (rule para_solve, family reference)."""
     tag = series_tag("graded", h)
     if tag == para_reference_tag(problem):
-        from types import SimpleNamespace
-        return para_reference(SimpleNamespace(problem=problem))
+        return para_reference(Namespace(problem=problem))
     return path(rules.para_solve.output.npz, problem=problem, family="reference", tag=tag)
 
 

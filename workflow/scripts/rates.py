@@ -1,6 +1,7 @@
 """The rate table: ours next to the paper's (CSV, Markdown, LaTeX)."""
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path, write_table
@@ -97,15 +98,21 @@ def within(r):
 
 def unmeasured_exclusions(df):
     """{(example, variant, family, s): how many of the group's runs rate_table leaves out
-    with a bound that is not their own measured uncertainty}: runs of the reference's
-    family itself, whose uncertainty the other members cannot measure (fewer than four
-    left), held to the finest run's error instead (report.with_fit_bound)."""
+    with a bound that is not their own measured uncertainty}: runs with a finite error
+    whose uncertainty is not measured (NaN) where the other runs of their problem have
+    one. With a family of four or more members that is a run sharing its space mesh with
+    a member, which its error leaves out (fracfem.transfer.ReferenceFamily.error): the
+    three left measure no uncertainty, and the run is held to the finest run's error
+    instead (report.with_fit_bound). A family of three measures none for any run: then
+    nothing is counted."""
     if "error_uncertainty" not in df or "reference_run_error" not in df:
         return {}
     d = df.assign(variant=df["variant"].astype(object).fillna("").astype(str)
                   if "variant" in df else "")
-    out = d[~fit_mask(d.error, d.reference_error) & d.error_uncertainty.isna()
-            & d.reference_run_error.notna()]
+    measured = d.groupby(["example", "variant"]).error_uncertainty.transform(
+        lambda u: u.notna().any())
+    out = d[~fit_mask(d.error, d.reference_error) & np.isfinite(d.error)
+            & d.error_uncertainty.isna() & d.reference_run_error.notna() & measured]
     return {k: len(g) for k, g in out.groupby(["example", "variant", "family", "s"])}
 
 
@@ -126,17 +133,19 @@ def differences(rates, limit=0.05, time_split=(), unmeasured=None):
             own = (unmeasured.get((r.example, r.variant or "", r.family, r.s), 0)
                    if unmeasured else 0)
             if r.n_excluded and own:
-                one = own == 1
+                one, more = own == 1, r.n_excluded - own
                 why = (f"{own} of its {r.n_points + r.n_excluded} runs "
-                       f"{'is itself a run' if one else 'are themselves runs'} of the "
-                       "reference's family: the other members are too few to measure the "
-                       f"uncertainty of {'its error' if one else 'their errors'}, so "
+                       f"{'shares its' if one else 'share their'} space mesh with a member "
+                       "of the reference's family, which the measurement leaves out; the "
+                       "three members left measure no uncertainty of "
+                       f"{'its error' if one else 'their errors'}, so "
                        f"{'its bound is' if one else 'their bound is'} the reference run's "
                        f"own error, within 3× of which {'it lies' if one else 'they lie'}; "
                        f"{'it is' if one else 'they are'} left out"
-                       + ("" if own == r.n_excluded else
-                          f", as are {r.n_excluded - own} more within 3× their measured "
-                          "uncertainty (a finer reference is needed)")
+                       + ("" if not more else
+                          f", as {'is' if more == 1 else 'are'} {more} more within 3× "
+                          f"{'its' if more == 1 else 'their'} measured uncertainty (a finer "
+                          "reference is needed)")
                        + f", and the rate rests on {r.n_points}. A coarser member added to "
                        "the family would measure that uncertainty"
                        + ("" if why == "not explained yet" else f". Also: {why}"))
