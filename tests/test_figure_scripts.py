@@ -415,6 +415,35 @@ def test_time_split_page_fits_each_refinement_through_the_passes_above_the_margi
     assert "-0.323" in page and "1 − (e(τ/16)/e)²" in page
 
 
+def test_ex5_uniform_cause_solves_the_uniform_runs_again_with_more_time_steps(tmp_path):
+    """The τ/m case: Example 5's uniform runs on the same meshes with m× the steps, measured
+    against Example 5's own family (no family of its own), its share of e² in a table of
+    its own; a bad m is refused before any solve."""
+    cause = script("ex5_uniform_cause")
+    args = dict(data={"s": 0.6, "F": 0.1, "r0": 0.6}, changes={}, T=1.0, grading=2.0,
+                uniform_levels=[2, 3], uniform_tau_factor=1.0, family_h=[0.4, 0.2, 0.1],
+                reference_tau_factor=0.5, tol=1e-10, quadrature={},
+                md=tmp_path / "page.md", csv=tmp_path / "runs.csv")
+    with pytest.raises(ValueError, match="time_refinements"):
+        cause.main(**args, time_refinements=[1])
+    assert not (tmp_path / "page.md").exists()
+    cause.main(**args, time_refinements=[2])
+    df = pd.read_csv(tmp_path / "runs.csv")
+    assert sorted(set(df.case)) == ["Example 5", "Example 5, τ/2"]
+    own, fine = (df[df.case == c].set_index("tag") for c in ("Example 5", "Example 5, τ/2"))
+    # the same meshes, about twice the steps, the same reference's own error
+    ratio = fine.spacetime_dofs / own.spacetime_dofs
+    assert ((ratio > 1.6) & (ratio < 2.6)).all()
+    assert (fine.reference_run_error == own.reference_run_error).all()
+    assert (fine.error < own.error).all()             # the time error shrinks
+    text = (tmp_path / "page.md").read_text()
+    assert text.count("| h0.1 ") == 1                # one family: Example 5's
+    share = 1 - (fine.error / own.error) ** 2
+    for tag in ("L2", "L3"):
+        (line,) = [ln for ln in text.splitlines() if ln.startswith(f"| {tag} ") and "|   2 |" in ln]
+        assert float(line.split("|")[-2]) == pytest.approx(share[tag], rel=1e-3)
+
+
 def test_time_split_page_adds_the_graded_series_in_the_order_of_its_dofs():
     """The graded runs (tags whose alphabetical order is not their size's) get their own
     rates per m, fitted against each run's own space-time DOFs in order of size, and the

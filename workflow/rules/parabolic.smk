@@ -429,6 +429,7 @@ rule ex5_uniform_cause:
         T=PARA["T"],
         grading=GRADING,
         uniform_levels=PARA["uniform_cause"]["uniform_levels"],
+        time_refinements=PARA["uniform_cause"]["time_refinements"],
         uniform_tau_factor=PARA["tau_factor"]["uniform"],
         family_h=PARA["reference"]["check_h"],
         reference_tau_factor=PARA["reference"]["tau_factor"],

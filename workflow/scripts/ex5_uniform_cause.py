@@ -6,7 +6,9 @@ i.e. (space-time DOFs)^{−1/(4+4s)}.  The uniform series is measured against th
 graded family made the same way for: Example 5 as it is; without friction (F = 0: the fractional heat equation
 from the same u₀); and with u₀ = 1 instead of the ring (|x| − 1)(|x| − r₀), i.e. an initial
 value that does not vanish on ∂Ω, as in Example 4.  Local slopes between consecutive runs
-show whether a fitted rate is still pre-asymptotic.
+show whether a fitted rate is still pre-asymptotic.  Example 5's uniform runs solved again on
+their meshes with m times their time steps (τ/m), measured against Example 5's family, say
+how much of their error is the time discretisation's.
 
 Example 5's own runs (its uniform series and the graded family) are the pipeline's
 (rule para_solve), read from their files; the changed cases are solved here, each on
@@ -52,7 +54,7 @@ def stored(npz, tag, ex, grading, quad, operators):
 
 def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h,
          reference_tau_factor, tol, quadrature, md, csv, log=None, threads=None,
-         family_runs=None, uniform_runs=None):
+         family_runs=None, uniform_runs=None, time_refinements=()):
     """data: Example 5's parameters; changes: {name: {'F': …} or {'u0': …}}, each one change
     of Example 5.  Each case's uniform runs are measured against the limit of its graded
     family family_h (τ = reference_tau_factor h_max^{2s}; at least four runs): their
@@ -60,7 +62,11 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
     its uncertainty, the bound of the rate fit (report.fit_mask), as for the pipeline's
     parabolic errors.  family_runs, uniform_runs: para_solve's npz files of Example 5's
     family and uniform series made with these settings, read instead of solved again
-    (None: solved here)."""
+    (None: solved here).  time_refinements: each m > 1 adds the case "Example 5, τ/m": its
+    uniform runs on the same meshes with m times the time steps, against Example 5's
+    family."""
+    if any(not (isinstance(m, int) and m >= 2) for m in time_refinements):
+        raise ValueError(f"time_refinements={list(time_refinements)!r} must be integers >= 2")
     start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
     tags = [ff.series_tag("uniform", lv) for lv in uniform_levels]
@@ -97,6 +103,14 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
             pieces, _, fr = solved(tag, uniform_tau_factor, uniform_runs, i)
             rows.append({"case": name, "tag": tag, "spacetime_dofs": len(fr) * len(pieces),
                          **family_error(fam, pieces), "reference_run_error": ref_err})
+        if own:                          # the same runs with m× the time steps
+            for m in time_refinements:
+                for i, tag in enumerate(tags):
+                    pieces, _, fr = run(ex, u0, tag, grading, T, uniform_tau_factor / m, tol,
+                                        quad, operators)
+                    rows.append({"case": f"Example 5, τ/{m}", "tag": tag,
+                                 "spacetime_dofs": len(fr) * len(pieces),
+                                 **family_error(fam, pieces), "reference_run_error": ref_err})
     df = pd.DataFrame(rows)
     df["local slope"] = local_slopes(df.spacetime_dofs, df.error, df.case).to_numpy()
     bound = df.error_uncertainty.where(df.error_uncertainty.notna(), df.reference_run_error)
@@ -110,6 +124,14 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
                         "last local slope": g["local slope"].iloc[-1],
                         "smallest_error": g.error.min(),
                         "largest uncertainty / error": (g.error_uncertainty / g.error).max()})
+    share = []
+    base = df[df.case == "Example 5"].set_index("tag").error
+    for m in time_refinements:
+        e = df[df.case == f"Example 5, τ/{m}"].set_index("tag").error
+        share.append(pd.DataFrame({"tag": tags, "m": m, "error": base[tags].to_numpy(),
+                                   "error (τ/m)": e[tags].to_numpy(),
+                                   "1 − (e(τ/m)/e)²": 1.0 - (e[tags] / base[tags]).to_numpy()
+                                   ** 2}))
     s = float(data["s"])
     write_table(with_provenance(df.assign(**parameter_columns(
         quadrature=quad, grading=grading, T=T, tau_factor=uniform_tau_factor, tol=tol,
@@ -121,6 +143,8 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
             f"made the same way ({', '.join(family)}, τ = {reference_tau_factor:g} "
             "h_max^(2s)), for Example 5 and for one change of it at a time: "
             + "; ".join(changes)
+            + "".join(f"; Example 5 with {m}× the time steps on the same meshes (τ/{m}), "
+                      "against Example 5's family" for m in time_refinements)
             + ". The error is the distance to the family's limit (extrapolated), fitted "
             f"where it exceeds {REFERENCE_MARGIN:g}× its uncertainty; rate_vs_reference is "
             "the rate of the distances to the family's finest run alone. The rate of the "
@@ -128,6 +152,12 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
             "\n\n"
             + pd.DataFrame(summary).to_markdown(index=False, floatfmt=".4g") + "\n\n"
             + pd.DataFrame(refs).to_markdown(index=False, floatfmt=".4g") + "\n\n"
+            + ("How much of Example 5's uniform error is the time steps': its error as run "
+               "and with m× the steps on the same meshes; 1 − (e(τ/m)/e)² is the time "
+               "steps' share of the squared error, as far as m× the steps remove it.\n\n"
+               + pd.concat(share, ignore_index=True).to_markdown(index=False,
+                                                                 floatfmt=".4g") + "\n\n"
+               if share else "")
             + df.drop(columns=["reference_run_error", "fitted"]).to_markdown(
                 index=False, floatfmt=".4g")
             + "\n")
@@ -140,4 +170,5 @@ if __name__ == "__main__":
          snakemake.params.reference_tau_factor, snakemake.params.tol,  # noqa: F821
          snakemake.params.quadrature, snakemake.output.md, snakemake.output.csv,  # noqa: F821
          snakemake.log[0], snakemake.threads,  # noqa: F821
-         list(snakemake.input.family), list(snakemake.input.uniform))  # noqa: F821
+         list(snakemake.input.family), list(snakemake.input.uniform),  # noqa: F821
+         list(snakemake.params.time_refinements))  # noqa: F821
