@@ -216,7 +216,12 @@ GROUPS = [
                             "safe side)",
     }),
     ("Example 5's uniform rate (`ex5-uniform-rate.md`)", False, {
-        "case": "Example 5 as configured, or one change of it",
+        "case": "Example 5 as configured, or one change of it (`Example 5, τ/m`: its "
+                "uniform runs on the same meshes with m× the time steps, against its family)",
+        "error (τ/m)": "`error` of a uniform run of Example 5 solved again on its meshes "
+                       "with m× its time steps",
+        "1 − (e(τ/m)/e)²": "the part of the run's squared error that m× the time steps "
+                           "remove: the time discretisation's share, as far as they remove it",
         "reference run": "the finest graded run of the family the case's series is "
                          "measured against",
         "consecutive distances": "distances between consecutive runs of that family, "
