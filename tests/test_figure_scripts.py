@@ -416,31 +416,38 @@ def test_time_split_page_fits_each_refinement_through_the_passes_above_the_margi
 
 
 def test_ex5_uniform_cause_solves_the_uniform_runs_again_with_more_time_steps(tmp_path):
-    """The τ/m case: Example 5's uniform runs on the same meshes with m× the steps, measured
-    against Example 5's own family (no family of its own), its share of e² in a table of
-    its own; a bad m is refused before any solve."""
+    """The τ/m case: Example 5's uniform runs on the same meshes with m× the steps (τ/m of
+    the series' own τ, not of the family's), measured against Example 5's own family (not
+    that of the change solved after it), its share of e² in a table of its own; a bad m is
+    refused before any solve."""
     cause = script("ex5_uniform_cause")
-    args = dict(data={"s": 0.6, "F": 0.1, "r0": 0.6}, changes={}, T=1.0, grading=2.0,
+    args = dict(data={"s": 0.6, "F": 0.1, "r0": 0.6}, changes={"u₀ = 1": {"u0": 1.0}},
+                T=1.0, grading=2.0,
                 uniform_levels=[2, 3], uniform_tau_factor=1.0, family_h=[0.4, 0.2, 0.1],
                 reference_tau_factor=0.5, tol=1e-10, quadrature={},
                 md=tmp_path / "page.md", csv=tmp_path / "runs.csv")
-    with pytest.raises(ValueError, match="time_refinements"):
-        cause.main(**args, time_refinements=[1])
+    for bad in ([1], [3, 3], [65]):
+        with pytest.raises(ValueError, match=r"time_refinements.*\[2, 64\]"):
+            cause.main(**args, time_refinements=bad)
     assert not (tmp_path / "page.md").exists()
-    cause.main(**args, time_refinements=[2])
+    cause.main(**args, time_refinements=[3])
     df = pd.read_csv(tmp_path / "runs.csv")
-    assert sorted(set(df.case)) == ["Example 5", "Example 5, τ/2"]
-    own, fine = (df[df.case == c].set_index("tag") for c in ("Example 5", "Example 5, τ/2"))
-    # the same meshes, about twice the steps, the same reference's own error
+    assert sorted(set(df.case)) == ["Example 5", "Example 5, τ/3", "u₀ = 1"]
+    own, fine, other = (df[df.case == c].set_index("tag")
+                        for c in ("Example 5", "Example 5, τ/3", "u₀ = 1"))
+    # the same meshes, about three times the steps (τ/3 of the series', not of the
+    # family's τ, which is half of it), the same family (its finest run's own error)
     ratio = fine.spacetime_dofs / own.spacetime_dofs
-    assert ((ratio > 1.6) & (ratio < 2.6)).all()
+    assert ((ratio > 2.4) & (ratio < 3.6)).all()
     assert (fine.reference_run_error == own.reference_run_error).all()
+    assert (fine.reference_run_error != other.reference_run_error).all()
     assert (fine.error < own.error).all()             # the time error shrinks
     text = (tmp_path / "page.md").read_text()
-    assert text.count("| h0.1 ") == 1                # one family: Example 5's
+    assert text.count("| h0.1 ") == 2                # Example 5's family and u₀ = 1's
     share = 1 - (fine.error / own.error) ** 2
     for tag in ("L2", "L3"):
-        (line,) = [ln for ln in text.splitlines() if ln.startswith(f"| {tag} ") and "|   2 |" in ln]
+        (line,) = [ln for ln in text.splitlines()
+                   if ln.startswith(f"| {tag} ") and "|   3 |" in ln]
         assert float(line.split("|")[-2]) == pytest.approx(share[tag], rel=1e-3)
 
 

@@ -65,8 +65,10 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
     (None: solved here).  time_refinements: each m > 1 adds the case "Example 5, τ/m": its
     uniform runs on the same meshes with m times the time steps, against Example 5's
     family."""
-    if any(not (isinstance(m, int) and m >= 2) for m in time_refinements):
-        raise ValueError(f"time_refinements={list(time_refinements)!r} must be integers >= 2")
+    if (any(not (isinstance(m, int) and 2 <= m <= 64) for m in time_refinements)
+            or len(set(time_refinements)) != len(time_refinements)):
+        raise ValueError(f"time_refinements={list(time_refinements)!r} must be distinct "
+                         "integers in [2, 64]")
     start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
     tags = [ff.series_tag("uniform", lv) for lv in uniform_levels]

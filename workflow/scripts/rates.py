@@ -39,13 +39,16 @@ REASONS = {(1, "graded"): "the local slopes of our series approach the theoretic
            (5, "uniform"): "ex5-uniform-rate.md changes one thing at a time: without "
                            "friction the local slopes stay within a few per cent of "
                            "Example 5's; with u₀ = 1, which does not vanish on ∂Ω, they are "
-                           "those of the boundary layer, −1/(4 + 4s), at every level. "
-                           "Example 5's u₀ vanishes on ∂Ω, and its runs solved again with "
-                           "4× the time steps on the same meshes lose most of their squared "
-                           "error: at our sizes its error is mostly the time steps', its "
-                           "local slopes steepen toward their rate −2s/(2 + 2s) of τ ~ "
-                           "h^(2s), not flatten toward the layer's (the paper-scale tier "
-                           "measures one level more against a finer family)"}
+                           "close to, and somewhat flatter than, the boundary layer's "
+                           "−1/(4 + 4s) at every level. Example 5's u₀ vanishes on ∂Ω, and "
+                           "its runs solved again on the same meshes with more time steps "
+                           "(parabolic.uniform_cause.time_refinements) lose most of their "
+                           "squared error at every level: at our sizes its error is mostly "
+                           "the time steps', and its local slopes steepen level by level, "
+                           "none yet beyond −2s/(2 + 2s), the rate of that error with τ ~ "
+                           "h^(2s), instead of flattening toward the layer's (the "
+                           "paper-scale tier measures one level more against a finer family, "
+                           "with the errors' uncertainties)"}
 
 # the parabolic adaptive rows, where the problem's time-split table is made
 # (parabolic.time_split.problems); otherwise REF_PARA alone
