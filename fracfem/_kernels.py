@@ -9,6 +9,18 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+#: Most points of one far-field rule: the size of the kernels' per-thread work
+#: arrays W (MAX_RULE_POINTS²) and V (3 × MAX_RULE_POINTS), which are indexed
+#: without bounds checks.
+MAX_RULE_POINTS = 64
+
+
+@njit(cache=True, inline="always")
+def _check_rule_sizes(offsets):  # pragma: no cover
+    """Refuse rules (offsets[L]:offsets[L+1]) longer than the work arrays."""
+    if np.max(offsets[1:] - offsets[:-1]) > MAX_RULE_POINTS:
+        raise ValueError("a far-field rule has more points than MAX_RULE_POINTS (the work arrays')")
+
 
 @njit(cache=True, parallel=True)
 def singular_pairs(p, nodes, tp, signs, zq, wq, amat, s, out):  # pragma: no cover
@@ -184,13 +196,12 @@ def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
     nqt = offsets[nlev]
     expo = -1.0 - s
     alpha = -2.0 - 2.0 * s
-    if np.max(offsets[1:] - offsets[:-1]) > 64:
-        raise ValueError("a far-field rule has more than 64 points (the work arrays')")
+    _check_rule_sizes(offsets)
     X = np.zeros((nchunks, nv, nv))
     D = np.zeros((nchunks, nt, nqt + 4))
     for c in prange(nchunks):
-        W = np.empty((64, 64))
-        V = np.empty((3, 64))
+        W = np.empty((MAX_RULE_POINTS, MAX_RULE_POINTS))
+        V = np.empty((3, MAX_RULE_POINTS))
         Xl = np.empty((3, 3))
         for T in range(c, nt, nchunks):
             i0, i1, i2 = t[T, 0], t[T, 1], t[T, 2]
@@ -245,11 +256,10 @@ def near_pairs(t, perm, cl_start, cl_end, near_ptr, near_rows, near_cols, cent, 
     if nchunks < 1 or (data.shape[0] != 1 and data.shape[0] != nchunks):
         raise ValueError("nchunks must be positive and data have one row or one per chunk")
     copy_stride = 0 if data.shape[0] == 1 else 1   # shared array, or one per chunk
-    if np.max(offsets[1:] - offsets[:-1]) > 64:
-        raise ValueError("a far-field rule has more than 64 points (the work arrays')")
+    _check_rule_sizes(offsets)
     D = np.zeros((nchunks, nt, nqt + 4))
-    W_all = np.empty((nchunks, 64, 64))
-    V_all = np.empty((nchunks, 3, 64))
+    W_all = np.empty((nchunks, MAX_RULE_POINTS, MAX_RULE_POINTS))
+    V_all = np.empty((nchunks, 3, MAX_RULE_POINTS))
     X_all = np.empty((nchunks, 3, 3))
     pos_all = np.zeros((nchunks, 3, nv), dtype=np.int64)
     for col in range(colour_ptr.shape[0] - 1):

@@ -303,8 +303,10 @@ def _far_rules(p, t, orders, area2=None):
         wts.append(area2[:, None] * W[None, :])
         lams.append(lam)
         offs.append(offs[-1] + len(W))
-    if max(len(l) for l in lams) > 64:  # the kernel's fixed W buffer (no bounds checks)
-        raise ValueError("far-field rules are limited to 64 points per triangle")
+    if max(len(l) for l in lams) > _kernels.MAX_RULE_POINTS:  # the kernels' work arrays
+        raise ValueError(f"far-field rules are limited to {_kernels.MAX_RULE_POINTS} points per "
+                         f"triangle; far_orders {list(orders)} ask for "
+                         f"{max(len(l) for l in lams)}")
     return (np.ascontiguousarray(np.concatenate(pts, axis=1)),
             np.ascontiguousarray(np.concatenate(wts, axis=1)),
             np.ascontiguousarray(np.vstack(lams)), np.array(offs, dtype=np.int64))

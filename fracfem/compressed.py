@@ -631,13 +631,14 @@ def _leaf_nodes(tree: dict, t: np.ndarray, nv: int) -> sp.csr_matrix:
     return inc
 
 
-def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray,
-                  nv: int) -> tuple[np.ndarray, np.ndarray]:
+def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray, nv: int,
+                  inc: sp.csr_matrix | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Node pairs of the near blocks (structure only): CSR ``indptr`` (int64)
     and sorted ``indices`` (int32 while the node numbers allow), both arrays of
-    their own, so that :func:`_restrict_arrays` compacts them in place."""
+    their own, so that :func:`_restrict_arrays` compacts them in place.
+    ``inc``: the leaves' node incidence (:func:`_leaf_nodes`) if already built."""
     nc = len(tree["start"])
-    inc = _leaf_nodes(tree, t, nv)
+    inc = _leaf_nodes(tree, t, nv) if inc is None else inc
     nb = sp.csr_matrix((np.ones(len(near), dtype=np.int8), (near[:, 0], near[:, 1])),
                        shape=(nc, nc))
     pat = (inc.T.tocsr().astype(np.int32) @ (nb.astype(np.int32) @ inc.astype(np.int32)))
@@ -649,19 +650,21 @@ def _near_pattern(tree: dict, near: np.ndarray, t: np.ndarray,
     return indptr, indices
 
 
-def _row_classes(tree: dict, rows: np.ndarray, t: np.ndarray,
-                 nv: int) -> tuple[np.ndarray, np.ndarray]:
+def _row_classes(tree: dict, rows: np.ndarray, t: np.ndarray, nv: int,
+                 inc: sp.csr_matrix | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Classes of the near blocks' row clusters ``rows`` (leaves, as in
     :func:`block_tree`) in which no two clusters have a node in common, for
     :func:`fracfem._kernels.near_pairs` to write the values of one class's rows
     from several threads into one array: (order, ptr), the classes being
-    rows-indices order[ptr[k]:ptr[k+1]], each in increasing order."""
+    rows-indices order[ptr[k]:ptr[k+1]], each in increasing order.  ``inc``:
+    the leaves' node incidence (:func:`_leaf_nodes`) if already built."""
     rows = np.asarray(rows, dtype=np.int64)
     if len(rows) == 0:
         return np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64)
     if np.any(tree["child0"][rows] >= 0):
         raise ValueError("near blocks' row clusters must be leaves (block_tree's)")
-    R = _leaf_nodes(tree, t, nv)[rows].astype(np.int32)
+    inc = _leaf_nodes(tree, t, nv) if inc is None else inc
+    R = inc[rows].astype(np.int32)
     G = (R @ R.T).tocsr()
     colour = hk.greedy_colouring(G.indptr.astype(np.int64), G.indices.astype(np.int64))
     order = np.argsort(colour, kind="stable")
@@ -721,7 +724,8 @@ def _near_field(p, t, tree, near, quad, s, geometry, moments, *,
     nv = len(p)
     area2, cent, diam = geometry
     area, mom, grad = moments
-    indptr, indices = _near_pattern(tree, near, t, nv)
+    inc = _leaf_nodes(tree, t, nv)          # built once, for the pattern and the classes
+    indptr, indices = _near_pattern(tree, near, t, nv, inc)
     qx, qw, lam, offs = _far_rules(p, t, quad.far_orders, area2)
     nchunks = numba.get_num_threads() if nchunks is None else int(nchunks)
     if nchunks < 1:
@@ -732,7 +736,7 @@ def _near_field(p, t, tree, near, quad, s, geometry, moments, *,
         cptr = np.array([0, len(rows)], dtype=np.int64)
         data = np.zeros((nchunks, len(indices)))
     else:
-        order, cptr = _row_classes(tree, rows, t, nv)
+        order, cptr = _row_classes(tree, rows, t, nv, inc)
         data = np.zeros((1, len(indices)))
     D = _kernels.near_pairs(t, tree["perm"], tree["start"], tree["end"], ptr, rows, cols,
                             cent, diam, area, mom, grad, qx, qw, lam, offs,

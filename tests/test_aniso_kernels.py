@@ -304,19 +304,19 @@ def test_kappa_on_thin_elements_at_the_boundary(ring_kappa, nb, min_aspect):
 
 
 def test_pair_kernels_refuse_rules_larger_than_their_work_arrays():
-    """far_pairs and near_pairs keep 64 × 64 work arrays per thread: a level
+    """far_pairs and near_pairs keep MAX_RULE_POINTS² work arrays per thread: a level
     with more points raises instead of writing past them."""
     t = np.array([[0, 1, 2], [3, 4, 5]])
-    nt, nq = 2, 65
+    nt, nq = 2, _kernels.MAX_RULE_POINTS + 1
     cent, diam, area = np.zeros((nt, 2)), np.ones(nt), np.ones(nt)
     mom, grad = np.zeros((nt, 3)), np.zeros((nt, 3, 2))
     qx, qw, lam = np.zeros((nt, nq, 2)), np.zeros((nt, nq)), np.zeros((nq, 3))
     offsets, thresholds = np.array([0, nq]), np.zeros(0)
-    with pytest.raises(ValueError, match="more than 64 points"):
+    with pytest.raises(ValueError, match="more points than MAX_RULE_POINTS"):
         _kernels.far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets,
                            thresholds, False, 0.5, 6, 1)
     i1 = np.array([0, 1])
-    with pytest.raises(ValueError, match="more than 64 points"):
+    with pytest.raises(ValueError, match="more points than MAX_RULE_POINTS"):
         _kernels.near_pairs(t, np.arange(nt), np.array([0]), np.array([2]), i1,
                             np.array([0]), np.array([0]), cent, diam, area, mom, grad,
                             qx, qw, lam, offsets, thresholds, False, 0.5,

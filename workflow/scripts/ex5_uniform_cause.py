@@ -62,9 +62,9 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
     its uncertainty, the bound of the rate fit (report.fit_mask), as for the pipeline's
     parabolic errors.  family_runs, uniform_runs: para_solve's npz files of Example 5's
     family and uniform series made with these settings, read instead of solved again
-    (None: solved here).  time_refinements: each m > 1 adds the case "Example 5, τ/m": its
-    uniform runs on the same meshes with m times the time steps, against Example 5's
-    family."""
+    (None: solved here).  time_refinements: distinct integers m in [2, 64]; each adds
+    the case "Example 5, τ/m": its uniform runs on the same meshes with m times the time
+    steps, against Example 5's family."""
     if (any(not (isinstance(m, int) and 2 <= m <= 64) for m in time_refinements)
             or len(set(time_refinements)) != len(time_refinements)):
         raise ValueError(f"time_refinements={list(time_refinements)!r} must be distinct "

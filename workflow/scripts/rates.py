@@ -7,7 +7,7 @@ import pandas as pd
 from fracfem_workflow.io import atomic_path, write_table
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.report import (PARTIAL_RATE_TABLES, fit_mask, join_tiers,
-                                     rate_table, whole_numbers)
+                                     rate_table, whole_numbers, with_variant_key)
 
 
 # why a rate can differ from the paper's (README, "Differences from the paper")
@@ -113,8 +113,7 @@ def unmeasured_exclusions(df):
     nothing is counted."""
     if "error_uncertainty" not in df or "reference_run_error" not in df:
         return {}
-    d = df.assign(variant=df["variant"].astype(object).fillna("").astype(str)
-                  if "variant" in df else "")
+    d = with_variant_key(df)
     measured = d.groupby(["example", "variant"]).error_uncertainty.transform(
         lambda u: u.notna().any())
     out = d[~fit_mask(d.error, d.reference_error) & np.isfinite(d.error)

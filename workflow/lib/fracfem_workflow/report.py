@@ -131,6 +131,16 @@ def rate_bounds(dofs, lower, upper) -> tuple:
     return float(least), float(greatest)
 
 
+def with_variant_key(df: pd.DataFrame) -> pd.DataFrame:
+    """A copy of ``df`` whose ``variant`` column is a string ("" for none, or when
+    the column is missing): the key by which the rate tables group and match their
+    rows (TIER_KEYS)."""
+    out = df.copy()
+    out["variant"] = (out["variant"].astype(object).fillna("").astype(str)
+                      if "variant" in out else "")
+    return out
+
+
 def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFrame:
     """One row per (example, variant, family, s): fitted rate next to the paper's.
 
@@ -143,12 +153,9 @@ def rate_table(df: pd.DataFrame, x: str = "dofs", y: str = "error") -> pd.DataFr
     error anywhere within its :func:`error_interval` (energy errors for the examples up
     to ENERGY_EXAMPLES): NaN where ``rate`` is, or a bound is unknown.
     """
-    df = df.copy()
-    if "variant" not in df:
-        df["variant"] = ""
+    df = with_variant_key(df)
     if "reference_error" not in df:
         df["reference_error"] = 0.0
-    df["variant"] = df["variant"].astype(object).fillna("").astype(str)
     rows = []
     for (ex, var, fam, s), g in df.groupby(["example", "variant", "family", "s"], sort=True):
         paper = paper_rate(ex, fam, s, var)
@@ -214,14 +221,12 @@ def join_tiers(rates: pd.DataFrame, others: dict) -> pd.DataFrame:
     each adds the columns ``<column>_<name>`` for the columns TIER_COLUMNS,
     matched on (example, variant, family, s), NaN where that tier has no such
     row.  A row of another tier that this table lacks is not added."""
-    out = rates.copy()
-    out["variant"] = out["variant"].astype(object).fillna("").astype(str)
+    out = with_variant_key(rates)
     for name, other in others.items():
         missing = [c for c in TIER_KEYS + TIER_COLUMNS if c not in other]
         if missing:
             raise ValueError(f"tier {name!r}: rate table lacks the columns {missing}")
-        o = other[TIER_KEYS + TIER_COLUMNS].copy()
-        o["variant"] = o["variant"].astype(object).fillna("").astype(str)
+        o = with_variant_key(other[TIER_KEYS + TIER_COLUMNS])
         if o.duplicated(TIER_KEYS).any():
             raise ValueError(f"tier {name!r}: rate table repeats a row")
         o = o.rename(columns={c: f"{c}_{name}" for c in TIER_COLUMNS})
