@@ -19,7 +19,7 @@ MAX_RULE_POINTS = 64
 def _check_rule_sizes(offsets):  # pragma: no cover
     """Refuse rules (offsets[L]:offsets[L+1]) longer than the work arrays."""
     if np.max(offsets[1:] - offsets[:-1]) > MAX_RULE_POINTS:
-        raise ValueError("a far-field rule has more points than MAX_RULE_POINTS (the work arrays')")
+        raise ValueError("a far-field rule is longer than the work arrays (MAX_RULE_POINTS)")
 
 
 @njit(cache=True, parallel=True)
