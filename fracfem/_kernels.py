@@ -101,7 +101,8 @@ def separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw, lam, offsets
     """One separated pair (T, T2) at level ``lev`` (:func:`pair_level`): X[a, b]
     ← what it adds to entry (t[T, a], t[T2, b]) of the one-sided part, and its
     sums into the rows T, T2 of chunk c of D, as :func:`far_pairs`
-    describes; W (64, 64) and V (3, 64) are work arrays."""
+    describes; W (MAX_RULE_POINTS, MAX_RULE_POINTS) and V (3, MAX_RULE_POINTS)
+    are work arrays."""
     q0 = offsets[lev]
     nq = offsets[lev + 1] - q0
     if taylor and lev == 0:

@@ -738,6 +738,7 @@ def _near_field(p, t, tree, near, quad, s, geometry, moments, *,
     else:
         order, cptr = _row_classes(tree, rows, t, nv, inc)
         data = np.zeros((1, len(indices)))
+    del inc
     D = _kernels.near_pairs(t, tree["perm"], tree["start"], tree["end"], ptr, rows, cols,
                             cent, diam, area, mom, grad, qx, qw, lam, offs,
                             np.asarray(quad.far_thresholds, dtype=np.float64), True, s,

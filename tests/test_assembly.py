@@ -638,8 +638,20 @@ def test_load_vector_integrates_polynomials():
     assert b.sum() == pytest.approx(4 + 4 / 3, rel=1e-13)
 
 
+def test_far_rules_refuse_more_points_than_the_kernels_work_arrays():
+    """_far_rules (which QuadratureOptions' degree limit, 12, keeps callers below)
+    refuses rules of more than _kernels.MAX_RULE_POINTS points, naming the orders."""
+    mesh = meshes.square(1)
+    p, t = mesh.p.T.copy(), mesh.t.T.copy()
+    n = len(triangle_rule(18)[1])
+    assert n > _kernels.MAX_RULE_POINTS
+    with pytest.raises(ValueError, match=rf"far_orders \[2, 18\] ask for {n}"):
+        assembly._far_rules(p, t, (2, 18))
+    assert assembly._far_rules(p, t, (12,))[3][-1] == len(triangle_rule(12)[1])
+
+
 @pytest.mark.parametrize("kwargs, match", [
-    ({"far_orders": (18,), "far_thresholds": ()}, "far_orders"),      # > 64 points
+    ({"far_orders": (18,), "far_thresholds": ()}, "far_orders"),      # outside [0, 12]
     ({"far_orders": (2, 0), "far_thresholds": (4.0,)}, "Taylor"),
     ({"far_orders": (0, 2), "far_thresholds": (2.0, 4.0)}, "far_thresholds"),
     ({"far_orders": (0, 2, 4), "far_thresholds": (4.0, 2.0)}, None),  # valid
