@@ -445,10 +445,32 @@ def test_ex5_uniform_cause_solves_the_uniform_runs_again_with_more_time_steps(tm
     text = (tmp_path / "page.md").read_text()
     assert text.count("| h0.1 ") == 2                # Example 5's family and u₀ = 1's
     share = 1 - (fine.error / own.error) ** 2
+    (head,) = [ln for ln in text.splitlines() if ln.startswith("| tag ") and "least" in ln]
+    cols = [c.strip() for c in head.strip().strip("|").split("|")]
     for tag in ("L2", "L3"):
         (line,) = [ln for ln in text.splitlines()
                    if ln.startswith(f"| {tag} ") and "|   3 |" in ln]
-        assert float(line.split("|")[-2]) == pytest.approx(share[tag], rel=1e-3)
+        row = dict(zip(cols, (c.strip() for c in line.strip().strip("|").split("|"))))
+        assert float(row["1 − (e(τ/m)/e)²"]) == pytest.approx(share[tag], rel=1e-3)
+        assert row["least share"] == "nan"     # a family of three measures no uncertainty
+
+
+def test_ex5_uniform_share_table_bounds_the_share_by_the_uncertainties():
+    """least share: 1 − ((e_m + u_m)/(e − u))², below the share; −inf once e − u ≤ 0 and
+    nan without a measured uncertainty; rows follow the tags asked for."""
+    cause = script("ex5_uniform_cause")
+    df = pd.DataFrame({
+        "case": ["Example 5"] * 3 + ["Example 5, τ/4"] * 3 + ["u₀ = 1"] * 3,
+        "tag": ["L2", "L3", "L4"] * 3,
+        "error": [0.04, 0.02, 0.01, 0.02, 0.008, 0.004, 0.5, 0.4, 0.3],
+        "error_uncertainty": [0.004, 0.02, np.nan, 0.002, 0.001, 0.001, 0.1, 0.1, 0.1]})
+    t = cause.share_table(df, ["L3", "L2", "L4"], 4).set_index("tag")
+    assert list(t.index) == ["L3", "L2", "L4"] and (t.m == 4).all()
+    assert t.loc["L2", "1 − (e(τ/m)/e)²"] == pytest.approx(1 - (0.02 / 0.04) ** 2)
+    assert t.loc["L2", "least share"] == pytest.approx(1 - (0.022 / 0.036) ** 2)
+    assert t.loc["L2", "least share"] < t.loc["L2", "1 − (e(τ/m)/e)²"]
+    assert t.loc["L3", "least share"] == -np.inf          # e − u = 0
+    assert np.isnan(t.loc["L4", "least share"])           # e's uncertainty not measured
 
 
 def test_time_split_page_adds_the_graded_series_in_the_order_of_its_dofs():
