@@ -456,16 +456,18 @@ def test_ex5_uniform_cause_solves_the_uniform_runs_again_with_more_time_steps(tm
 
 
 def test_ex5_uniform_share_table_bounds_the_share_by_the_uncertainties():
-    """least share: 1 − ((e_m + u_m)/(e − u))², below the share; −inf once e − u ≤ 0 and
-    nan without a measured uncertainty; rows follow the tags asked for."""
+    """least share: 1 − ((e_m + u_m)/(e − u))², below the share; −inf once e − u ≤ 0 or
+    u_m is infinite, nan without a measured uncertainty; rows follow the tags asked for."""
     cause = script("ex5_uniform_cause")
     df = pd.DataFrame({
-        "case": ["Example 5"] * 3 + ["Example 5, τ/4"] * 3 + ["u₀ = 1"] * 3,
-        "tag": ["L2", "L3", "L4"] * 3,
-        "error": [0.04, 0.02, 0.01, 0.02, 0.008, 0.004, 0.5, 0.4, 0.3],
-        "error_uncertainty": [0.004, 0.02, np.nan, 0.002, 0.001, 0.001, 0.1, 0.1, 0.1]})
-    t = cause.share_table(df, ["L3", "L2", "L4"], 4).set_index("tag")
-    assert list(t.index) == ["L3", "L2", "L4"] and (t.m == 4).all()
+        "case": ["Example 5"] * 4 + ["Example 5, τ/4"] * 4 + ["u₀ = 1"] * 4,
+        "tag": ["L2", "L3", "L4", "L5"] * 3,
+        "error": [0.04, 0.02, 0.01, 0.005, 0.02, 0.008, 0.004, 0.001, 0.5, 0.4, 0.3, 0.2],
+        "error_uncertainty": [0.004, 0.02, np.nan, 0.001, 0.002, 0.001, 0.001, np.inf,
+                              0.1, 0.1, 0.1, 0.1]})
+    t = cause.share_table(df, ["L3", "L2", "L4", "L5"], 4).set_index("tag")
+    assert list(t.index) == ["L3", "L2", "L4", "L5"] and (t.m == 4).all()
+    assert t.loc["L5", "least share"] == -np.inf          # the finer error unbounded
     assert t.loc["L2", "1 − (e(τ/m)/e)²"] == pytest.approx(1 - (0.02 / 0.04) ** 2)
     assert t.loc["L2", "least share"] == pytest.approx(1 - (0.022 / 0.036) ** 2)
     assert t.loc["L2", "least share"] < t.loc["L2", "1 − (e(τ/m)/e)²"]

@@ -152,7 +152,8 @@ def main(data, changes, T, grading, uniform_levels, uniform_tau_factor, family_h
                "and with m× the steps on the same meshes; 1 − (e(τ/m)/e)² is the time "
                "steps' share of the squared error, as far as m× the steps remove it; "
                "least share: its least value with both errors anywhere within their "
-               "uncertainty (−inf: e − u ≤ 0; nan: an uncertainty not measured).\n\n"
+               "uncertainty (−inf: none, e − u ≤ 0 or an infinite uncertainty; nan: an "
+               "uncertainty not measured).\n\n"
                + pd.concat(share, ignore_index=True).to_markdown(index=False,
                                                                  floatfmt=".4g") + "\n\n"
                if share else "")
@@ -166,8 +167,9 @@ def share_table(df: pd.DataFrame, tags, m: int) -> pd.DataFrame:
     1 − (e(τ/m)/e)² from the rows of the cases "Example 5" and "Example 5, τ/m" of ``df``,
     and its least value with both errors anywhere within their measured uncertainty
     (report.error_interval; the two measured against the same family, so their errors
-    may move together: the least value is a safe one): 1 − ((e_m + u_m)/(e − u))², −inf
-    where e − u ≤ 0, NaN where either uncertainty is not measured."""
+    may move together: the least value is a safe one): 1 − ((e_m + u_m)/(e − u))²; −inf,
+    no bound, where e − u ≤ 0 or u_m is infinite (the family bounds no finer error); NaN
+    where either uncertainty is not measured."""
     base = df[df.case == "Example 5"].set_index("tag").loc[list(tags)]
     fine = df[df.case == f"Example 5, τ/{m}"].set_index("tag").loc[list(tags)]
     lo, _ = error_interval(base.error, base.error_uncertainty)

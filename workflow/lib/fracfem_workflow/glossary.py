@@ -223,8 +223,9 @@ GROUPS = [
         "1 − (e(τ/m)/e)²": "the part of the run's squared error that m× the time steps "
                            "remove: the time discretisation's share, as far as they remove it",
         "least share": "its least value with `error` and `error (τ/m)` each anywhere within "
-                       "its `error_uncertainty`: 1 − ((e(τ/m) + u(τ/m))/(e − u))² (−inf "
-                       "where e − u ≤ 0, nan where an uncertainty is not measured)",
+                       "its `error_uncertainty`: 1 − ((e(τ/m) + u(τ/m))/(e − u))² (−inf: "
+                       "no bound, where e − u ≤ 0 or an uncertainty is infinite; nan where "
+                       "an uncertainty is not measured)",
         "reference run": "the finest graded run of the family the case's series is "
                          "measured against",
         "consecutive distances": "distances between consecutive runs of that family, "
