@@ -293,20 +293,20 @@ def _element_geometry(p, t):
 
 def _far_rules(p, t, orders, area2=None):
     """Physical points (Nt, nq, 2), weights (Nt, nq), barycentrics, offsets."""
+    rules = [triangle_rule(max(o, 1)) for o in orders]   # order 0: Taylor level, centroid
+    most = max(len(W) for _, W in rules)
+    if most > _kernels.MAX_RULE_POINTS:  # the kernels' work arrays, before any (Nt, nq) array
+        raise ValueError(f"far-field rules are limited to {_kernels.MAX_RULE_POINTS} points per "
+                         f"triangle; far_orders {list(orders)} ask for {most}")
     pts, wts, lams, offs = [], [], [], [0]
     if area2 is None:
         area2 = _element_geometry(p, t)[0]
-    for o in orders:
-        X, W = triangle_rule(max(o, 1))  # order 0: Taylor level, centroid
+    for X, W in rules:
         lam = np.column_stack([1.0 - X[:, 0] - X[:, 1], X[:, 0], X[:, 1]])
         pts.append(np.einsum("qk,tkd->tqd", lam, p[t]))
         wts.append(area2[:, None] * W[None, :])
         lams.append(lam)
         offs.append(offs[-1] + len(W))
-    if max(len(l) for l in lams) > _kernels.MAX_RULE_POINTS:  # the kernels' work arrays
-        raise ValueError(f"far-field rules are limited to {_kernels.MAX_RULE_POINTS} points per "
-                         f"triangle; far_orders {list(orders)} ask for "
-                         f"{max(len(l) for l in lams)}")
     return (np.ascontiguousarray(np.concatenate(pts, axis=1)),
             np.ascontiguousarray(np.concatenate(wts, axis=1)),
             np.ascontiguousarray(np.vstack(lams)), np.array(offs, dtype=np.int64))
