@@ -475,6 +475,55 @@ def test_ex5_uniform_share_table_bounds_the_share_by_the_uncertainties():
     assert np.isnan(t.loc["L4", "least share"])           # e's uncertainty not measured
 
 
+def _algorithm_b_steps(dofs, errors, theta=0.5, start_level=2):
+    """A made-up Algorithm B table of Example 1 as ex1_adaptive writes it."""
+    errors = np.asarray(errors, dtype=float)
+    return pd.DataFrame({"s": 0.5, "dofs": dofs, "error": errors, "eta": 0.9 * errors,
+                         "efficiency": 0.9, "theta": theta, "start_level": start_level,
+                         "marking": "maximum", "operator": "auto", "quadrature_edge": 8})
+
+
+def test_ex1_adaptive_rate_compares_series_cut_at_the_same_size(tmp_path):
+    """Every series is cut after its first step with at least max_dofs DOFs; rate fitted
+    through all steps kept; each step's error over the unchanged series' at its DOFs
+    (log-log interpolation, NaN outside); a table run with other settings is refused."""
+    page = script("ex1_adaptive_rate")
+    base = _algorithm_b_steps([25, 100, 400, 1600, 6400], [0.4, 0.2, 0.1, 0.05, 0.025])
+    # a finer start: above the unchanged series at its first step, on it afterwards
+    finer = _algorithm_b_steps([400, 800, 1600, 3200, 6400],
+                               [0.2, 0.1 / np.sqrt(2), 0.05, 0.05 / np.sqrt(2), 0.025],
+                               start_level=4)
+    summary, steps = page.change_tables({"as configured": base, "start_level = 4": finer},
+                                        max_dofs=1000)
+    summary = summary.set_index("case")
+    assert list(summary["last dofs"]) == [1600, 1600]      # both stop at the first ≥ 1000
+    assert summary.loc["as configured", "rate"] == pytest.approx(-0.5)
+    assert summary.loc["start_level = 4", "rate"] == pytest.approx(
+        np.polyfit(np.log([400, 800, 1600]), np.log([0.2, 0.1 / np.sqrt(2), 0.05]), 1)[0])
+    ratio = steps[steps.case == "start_level = 4"]["error / unchanged at the same DOFs"]
+    assert ratio.to_numpy() == pytest.approx([2.0, 1.0, 1.0])
+    assert steps[steps.case == "as configured"]["error / unchanged at the same DOFs"].to_numpy(
+        ) == pytest.approx(np.ones(4))
+    off = steps.set_index(["case", "step"])["local slope"]
+    assert off["start_level = 4", 1] == pytest.approx(-1.5)
+    with pytest.raises(ValueError, match="max_dofs=10000 is beyond the series"):
+        page.change_tables({"as configured": base}, max_dofs=10000)
+    # the change's table must hold the unchanged series' settings but the changed one
+    base.to_csv(tmp_path / "base.csv", index=False)
+    finer.assign(quadrature_edge=6).to_csv(tmp_path / "finer.csv", index=False)
+    with pytest.raises(ValueError, match="quadrature_edge = 8"):
+        page.main(tmp_path / "base.csv", [tmp_path / "finer.csv"],
+                  {"start_level = 4": {"start_level": 4}}, 1000, tmp_path / "p.md",
+                  tmp_path / "p.png")
+    assert not (tmp_path / "p.md").exists()
+    finer.to_csv(tmp_path / "finer.csv", index=False)
+    page.main(tmp_path / "base.csv", [tmp_path / "finer.csv"],
+              {"start_level = 4": {"start_level": 4}}, 1000, tmp_path / "p.md",
+              tmp_path / "p.png")
+    text = (tmp_path / "p.md").read_text()
+    assert "-0.510" in text and "start_level = 4" in text and (tmp_path / "p.png").exists()
+
+
 def test_time_split_page_adds_the_graded_series_in_the_order_of_its_dofs():
     """The graded runs (tags whose alphabetical order is not their size's) get their own
     rates per m, fitted against each run's own space-time DOFs in order of size, and the

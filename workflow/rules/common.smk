@@ -4,6 +4,7 @@
 import hashlib
 import json
 import os
+import re
 from pathlib import Path
 from types import SimpleNamespace as Namespace
 
@@ -55,6 +56,12 @@ for _block in ("example1", "example2", "example3"):   # Example 1: the extrapola
                          f"list at least 3 meshes: reference.family="
                          f"{config['reference']['family']!r} extrapolates through its three "
                          "finest energies")
+# ex1-adaptive-rate.md cuts the pipeline's adaptive series at the changed series' size
+_A, _C = config["example1"]["adaptive"], config["example1"]["adaptive_changes"]
+if _C["max_dofs"] > _A["max_dofs"]:
+    raise ValueError(f"config example1.adaptive_changes.max_dofs={_C['max_dofs']} must be at "
+                     f"most example1.adaptive.max_dofs={_A['max_dofs']}: the unchanged series "
+                     "is cut there")
 
 
 def _science(cfg):

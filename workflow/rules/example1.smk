@@ -42,6 +42,75 @@ rule ex1_adaptive:
         "../scripts/ex1_adaptive.py"
 
 
+# Algorithm B for Example 1 again with one setting of example1.adaptive changed at a time
+# (ex1-adaptive-rate.md): {change: {setting: value}}
+EX1_CHANGES = {
+    **{f"start{lv}": {"start_level": lv} for lv in EX1["adaptive_changes"]["start_level"]},
+    **{f"theta{fmt(th)}": {"theta": th} for th in EX1["adaptive_changes"]["theta"]},
+}
+
+
+def ex1_change(wildcards, key):
+    """A setting of the series of change wildcards.change: the change's or adaptive's."""
+    return {**EX1["adaptive"], **EX1_CHANGES[wildcards.change]}[key]
+
+
+rule ex1_adaptive_change:
+    output:
+        table=f"{RES}/ex1/adaptive-changes/s{{s}}/{{change}}.csv",
+    wildcard_constraints:
+        change="|".join(re.escape(c) for c in EX1_CHANGES) or "(?!)",
+    log:
+        f"{RES}/logs/ex1/adaptive-changes_s{{s}}_{{change}}.log",
+    benchmark:
+        f"{RES}/benchmarks/ex1/adaptive-changes_s{{s}}_{{change}}.tsv"
+    params:
+        theta=lambda w: ex1_change(w, "theta"),
+        start_level=lambda w: ex1_change(w, "start_level"),
+        max_dofs=EX1["adaptive_changes"]["max_dofs"],
+        max_steps=EX1["adaptive"]["max_steps"],
+        quadrature=QUADRATURE,
+        operator=EX1["adaptive"]["operator"],
+    priority: PRIORITY["long"]
+    threads: JOB_THREADS
+    conda:
+        ENV
+    script:
+        "../scripts/ex1_adaptive.py"
+
+
+rule ex1_adaptive_rate:
+    input:
+        series=path(rules.ex1_adaptive.output.table, s=fmt(EX1["s"])),
+        changes=[path(rules.ex1_adaptive_change.output.table, s=fmt(EX1["s"]), change=c)
+                 for c in EX1_CHANGES],
+    output:
+        md=report(
+            f"{OUT}/ex1-adaptive-rate.md",
+            caption="../../report/captions/ex1-adaptive-rate.rst",
+            category="Example 1",
+            subcategory="Tables",
+        ),
+        png=report(
+            f"{OUT}/extra-ex1-adaptive-rate.png",
+            caption="../../report/captions/ex1-adaptive-rate.rst",
+            category="Example 1",
+            subcategory="Further figures",
+        ),
+    params:
+        changes={f"{k} = {v}": change for c, change in EX1_CHANGES.items()
+                 for k, v in change.items()},
+        max_dofs=EX1["adaptive_changes"]["max_dofs"],
+    log:
+        f"{RES}/logs/ex1_adaptive_rate.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/ex1_adaptive_rate.tsv"
+    conda:
+        ENV
+    script:
+        "../scripts/ex1_adaptive_rate.py"
+
+
 rule ex1_table:
     input:
         rows=ex1_runs(S_EX1) + [path(rules.ex1_adaptive.output.table, s=fmt(EX1["s"]))],

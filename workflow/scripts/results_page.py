@@ -17,8 +17,8 @@ SECTIONS = [
      "2-graded and adaptive (Algorithm B) meshes. `eta` is the a posteriori estimator, "
      "`efficiency` = eta / error, times are wall seconds per phase.",
      ["fig01-ex1-solution-graded.png", "fig02-ex1-error.png",
-      "extra-ex1-error-vs-time.png", "extra-ex1-orders.png"],
-     ["ex1-errors.md"]),
+      "extra-ex1-error-vs-time.png", "extra-ex1-orders.png", "extra-ex1-adaptive-rate.png"],
+     ["ex1-errors.md", "ex1-adaptive-rate.md"]),
     ("Rates against the paper",
      "Least-squares slopes of log error against log DOFs (space-time DOFs for Examples 4 "
      "and 5), ours beside the paper's; `difference` = ours − paper.",

@@ -215,6 +215,21 @@ GROUPS = [
         "estimate / exact": "the estimate over the reference's exact error (> 1: on the "
                             "safe side)",
     }),
+    ("Example 1's adaptive rate (`ex1-adaptive-rate.md`)", False, {
+        "case": "Algorithm B as configured (`example1.adaptive`), or with one setting "
+                "changed (`example1.adaptive_changes`)",
+        ("theta", "start_level"): "the series' marking parameter θ (η(Δ) > θ η_max) and "
+                                  "start mesh `disk_uniform(start_level)`",
+        "step": "refinements of the start mesh so far (0: the start mesh)",
+        "start dofs": "`dofs` of the start mesh",
+        "Algorithm B steps": "steps of the series up to its first with at least "
+                             "`example1.adaptive_changes.max_dofs` DOFs, where every series "
+                             "is cut",
+        "last dofs": "`dofs` of the series' last step",
+        "error / unchanged at the same DOFs": "`error` over the unchanged series' error at "
+                                              "the same `dofs` (log–log interpolated; nan "
+                                              "outside its DOFs)",
+    }),
     ("Example 5's uniform rate (`ex5-uniform-rate.md`)", False, {
         "case": "Example 5 as configured, or one change of it (`Example 5, τ/m`: its "
                 "uniform runs on the same meshes with m× the time steps, against its family)",
