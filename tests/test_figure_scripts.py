@@ -479,7 +479,8 @@ def _algorithm_b_steps(dofs, errors, theta=0.5, start_level=2):
     """A made-up Algorithm B table of Example 1 as ex1_adaptive writes it."""
     errors = np.asarray(errors, dtype=float)
     return pd.DataFrame({"s": 0.5, "dofs": dofs, "error": errors, "eta": 0.9 * errors,
-                         "efficiency": 0.9, "theta": theta, "start_level": start_level,
+                         "efficiency": 0.9, "marked": 7, "innermost marked radius": 0.9,
+                         "theta": theta, "start_level": start_level,
                          "marking": "maximum", "operator": "auto", "quadrature_edge": 8})
 
 

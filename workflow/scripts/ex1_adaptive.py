@@ -25,6 +25,10 @@ def main(s, theta, start_level, max_dofs, max_steps, quadrature, table, npz, log
 
     def record(rec):
         err2 = exact - rec.load_dot_u
+        marked = np.asarray([] if rec.marked is None else rec.marked, dtype=int)
+        # where the step refines: the marked triangle nearest the disk's centre
+        inner = (np.hypot(*rec.mesh.p[:, rec.mesh.t[:, marked]].mean(axis=1)).min()
+                 if len(marked) else np.nan)
         if not err2 > 0:
             raise RuntimeError(f"Galerkin bound violated at step {rec.step}: (f,u_h) >= (f,u)")
         rows.append({
@@ -32,6 +36,7 @@ def main(s, theta, start_level, max_dofs, max_steps, quadrature, table, npz, log
             "dofs": rec.dofs, "triangles": rec.n_triangles, "h_max": rec.h_max,
             "h_min": rec.h_min, "fu_h": rec.load_dot_u, "fu_exact": exact,
             "error": np.sqrt(err2), "eta": rec.eta, "efficiency": rec.eta / np.sqrt(err2),
+            "marked": len(marked), "innermost marked radius": inner,
             "t_assembly": rec.timings.get("assemble", np.nan),
             "t_solve": rec.timings.get("solve", np.nan),
             "t_estimate": rec.timings.get("estimate", np.nan),

@@ -7,6 +7,8 @@ the series reach the same error at the same number of DOFs after a few steps whi
 fitted through all their steps moves with the start mesh, the fitted rate is a property of
 where the series starts, not of the adaptive meshes it reaches.
 """
+import re
+
 import numpy as np
 import pandas as pd
 
@@ -47,7 +49,8 @@ def change_tables(series: dict, max_dofs: int):
             "case": name, "theta": df.theta.to_numpy(), "start_level": df.start_level.to_numpy(),
             "step": np.arange(len(df)), "dofs": df.dofs.to_numpy(),
             "error": df.error.to_numpy(), "eta": df.eta.to_numpy(),
-            "efficiency": df.efficiency.to_numpy(),
+            "efficiency": df.efficiency.to_numpy(), "marked": df.marked.to_numpy(),
+            "innermost marked radius": df["innermost marked radius"].to_numpy(),
             "error / unchanged at the same DOFs": df.error.to_numpy() / at}))
     steps = pd.concat(rows, ignore_index=True)
     steps.insert(6, "local slope", local_slopes(steps.dofs, steps.error, steps.case).to_numpy())
@@ -60,6 +63,12 @@ def change_tables(series: dict, max_dofs: int):
         "error / unchanged at the same DOFs": g["error / unchanged at the same DOFs"].iloc[-1]}
         for name, g in steps.groupby("case", sort=False)])
     return summary, steps
+
+
+def legend_name(case):
+    """A case as the figure's legend names it: θ for theta, the start mesh by its name."""
+    return re.sub(r"start_level = (\d+)", r"start mesh disk_uniform(\1)",
+                  case.replace("theta", "θ"))
 
 
 def main(series_table, change_files, changes, max_dofs, md, png):
@@ -98,11 +107,11 @@ def main(series_table, change_files, changes, max_dofs, md, png):
     for i, (name, g) in enumerate(steps.groupby("case", sort=False)):
         rate = summary.loc[summary.case == name, "rate"].iloc[0]
         ax.loglog(g.dofs, g.error, marker="^osDvP*"[i % 7], ls="-" if i == 0 else ":",
-                  color=f"C{i}", label=f"{name}: {rate:.3f}")
+                  color=f"C{i}", label=f"{legend_name(name)}: {rate:.3f}")
     ax.set_xlabel(DOFS)
     ax.set_ylabel(ERROR_LABELS["elliptic"])
-    ax.set_title(f"Example 1 ($s = {s:g}$): Algorithm B, one setting changed\n"
-                 f"(legend: rate through all steps{paper.replace('the paper:', 'paper')})")
+    ax.set_title(f"Example 1 ($s = {s:g}$): Algorithm B with one setting changed\n"
+                 f"legend: rate through all steps{paper.replace('the paper:', 'paper')}")
     legend_below(ax, ncols=2)
     save(fig, png)
 

@@ -226,6 +226,11 @@ GROUPS = [
                              "`example1.adaptive_changes.max_dofs` DOFs, where every series "
                              "is cut",
         "last dofs": "`dofs` of the series' last step",
+        "marked": "triangles the step marks for refinement (the last step's too, which the "
+                  "series does not refine)",
+        "innermost marked radius": "distance from the disk's centre of the marked "
+                                   "triangle nearest to it (its centroid's): how far "
+                                   "inward the step refines (nan: none marked)",
         "error / unchanged at the same DOFs": "`error` over the unchanged series' error at "
                                               "the same `dofs` (log–log interpolated; nan "
                                               "outside its DOFs)",
