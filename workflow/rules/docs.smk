@@ -6,6 +6,7 @@ rule results_page:
         rules.fig01.output.png,
         rules.fig02.output.png,
         rules.ex1_extra_figures.output,
+        rules.ex1_adaptive_rate.output,
         rules.ex1_table.output,
         rules.rates.output.md,
         rules.ex1_quadrature_table.output.md,
