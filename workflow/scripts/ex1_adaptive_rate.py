@@ -65,8 +65,12 @@ def change_tables(series: dict, max_dofs: int):
     return summary, steps
 
 
-def legend_name(case):
-    """A case as the figure's legend names it: θ for theta, the start mesh by its name."""
+def legend_name(case, steps):
+    """A case as the figure's legend names it: θ for theta, the start mesh by its name;
+    the unchanged series with its settings (steps: its rows of the steps table)."""
+    if case == UNCHANGED:
+        case = f"{UNCHANGED}: theta = {steps.theta.iloc[0]:g}, start_level = " \
+               f"{steps.start_level.iloc[0]}"
     return re.sub(r"start_level = (\d+)", r"start mesh disk_uniform(\1)",
                   case.replace("theta", "θ"))
 
@@ -107,7 +111,7 @@ def main(series_table, change_files, changes, max_dofs, md, png):
     for i, (name, g) in enumerate(steps.groupby("case", sort=False)):
         rate = summary.loc[summary.case == name, "rate"].iloc[0]
         ax.loglog(g.dofs, g.error, marker="^osDvP*"[i % 7], ls="-" if i == 0 else ":",
-                  color=f"C{i}", label=f"{legend_name(name)}: {rate:.3f}")
+                  color=f"C{i}", label=f"{legend_name(name, g)}: {rate:.3f}")
     ax.set_xlabel(DOFS)
     ax.set_ylabel(ERROR_LABELS["elliptic"])
     ax.set_title(f"Example 1 ($s = {s:g}$): Algorithm B with one setting changed\n"

@@ -31,7 +31,7 @@ REASONS = {(1, "graded"): "the local slopes of our series approach the theoretic
                             "series has this one's error at the same DOFs, yet the rate "
                             "fitted through all its steps is steeper the finer its start "
                             "mesh: that rate says where the series starts (the paper does "
-                            "not give its start mesh) more than how the meshes it reaches "
+                            "not state its start mesh) more than how the meshes it reaches "
                             "converge; the local slopes steepen along the series "
                             "(`ex1-errors.md`; the paper-scale tier continues it)",
            (2, "adaptive"): "the reference energy is the limit of the large adaptive series "
