@@ -487,28 +487,41 @@ def _algorithm_b_steps(dofs, errors, theta=0.5, start_level=2):
 def test_ex1_adaptive_rate_compares_series_cut_at_the_same_size(tmp_path):
     """Every series is cut after its first step with at least max_dofs DOFs; rate fitted
     through all steps kept; each step's error over the unchanged series' at its DOFs
-    (log-log interpolation, NaN outside); a table run with other settings is refused."""
+    (log-log interpolation of the whole unchanged series, NaN beyond it); a table run with
+    other settings is refused."""
     page = script("ex1_adaptive_rate")
+    # the unchanged series: error 0.4 (N/25)^(-1/2)
     base = _algorithm_b_steps([25, 100, 400, 1600, 6400], [0.4, 0.2, 0.1, 0.05, 0.025])
-    # a finer start: above the unchanged series at its first step, on it afterwards
+    # a finer start: twice the unchanged series' error at its first step, on it afterwards
     finer = _algorithm_b_steps([400, 800, 1600, 3200, 6400],
                                [0.2, 0.1 / np.sqrt(2), 0.05, 0.05 / np.sqrt(2), 0.025],
                                start_level=4)
-    summary, steps = page.change_tables({"as configured": base, "start_level = 4": finer},
-                                        max_dofs=1000)
+    # ends beyond the unchanged series' cut, within its steps: 10 % below it there
+    lower = _algorithm_b_steps([25, 100, 400, 3200], [0.4, 0.2, 0.1, 0.9 * 0.4 / np.sqrt(128)],
+                               theta=0.75)
+    summary, steps = page.change_tables({"as configured": base, "start_level = 4": finer,
+                                         "theta = 0.75": lower}, max_dofs=1000)
     summary = summary.set_index("case")
-    assert list(summary["last dofs"]) == [1600, 1600]      # both stop at the first ≥ 1000
+    assert list(summary["last dofs"]) == [1600, 1600, 3200]   # the first ≥ 1000
     assert summary.loc["as configured", "rate"] == pytest.approx(-0.5)
-    assert summary.loc["start_level = 4", "rate"] == pytest.approx(
-        np.polyfit(np.log([400, 800, 1600]), np.log([0.2, 0.1 / np.sqrt(2), 0.05]), 1)[0])
-    ratio = steps[steps.case == "start_level = 4"]["error / unchanged at the same DOFs"]
-    assert ratio.to_numpy() == pytest.approx([2.0, 1.0, 1.0])
-    assert steps[steps.case == "as configured"]["error / unchanged at the same DOFs"].to_numpy(
-        ) == pytest.approx(np.ones(4))
-    off = steps.set_index(["case", "step"])["local slope"]
-    assert off["start_level = 4", 1] == pytest.approx(-1.5)
+    # through (400, 0.2), (800, 0.2/√8), (1600, 0.05): slopes −1.5 and −0.5, fitted −1
+    assert summary.loc["start_level = 4", "rate"] == pytest.approx(-1.0)
+    ratio = steps.set_index(["case", "step"])["error / unchanged at the same DOFs"]
+    assert ratio["start_level = 4"].to_numpy() == pytest.approx([2.0, 1.0, 1.0])
+    assert ratio["theta = 0.75", 3] == pytest.approx(0.9)   # beyond the unchanged cut
+    slope = steps.set_index(["case", "step"])["local slope"]
+    assert np.isnan(slope["start_level = 4", 0]) and np.isnan(slope["theta = 0.75", 0])
+    assert slope["start_level = 4", 1] == pytest.approx(-1.5)
+    # beyond the unchanged series' last step: no comparison
+    longer = _algorithm_b_steps([25, 100, 400, 1600, 12800], [0.4, 0.2, 0.1, 0.05, 0.01])
+    _, steps = page.change_tables({"as configured": base, "theta = 0.25": longer}, 5000)
+    r = steps[steps.case == "theta = 0.25"]["error / unchanged at the same DOFs"].to_numpy()
+    assert np.isnan(r[-1]) and np.isfinite(r[:-1]).all()
     with pytest.raises(ValueError, match="max_dofs=10000 is beyond the series"):
         page.change_tables({"as configured": base}, max_dofs=10000)
+    with pytest.raises(ValueError, match="reached by the start mesh of the series "
+                                         "'start_level = 4'"):
+        page.change_tables({"as configured": base, "start_level = 4": finer}, max_dofs=300)
     # the change's table must hold the unchanged series' settings but the changed one
     base.to_csv(tmp_path / "base.csv", index=False)
     finer.assign(quadrature_edge=6).to_csv(tmp_path / "finer.csv", index=False)

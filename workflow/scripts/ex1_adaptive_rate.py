@@ -23,11 +23,16 @@ UNCHANGED = "as configured"
 def cut(steps: pd.DataFrame, max_dofs: int, name: str) -> pd.DataFrame:
     """The steps of a series up to its first with at least max_dofs DOFs: the series
     Algorithm B gives when it stops there (its stopping rule).  A series that never
-    reaches max_dofs cannot be cut: ValueError."""
+    reaches max_dofs cannot be cut, nor one whose start mesh has max_dofs DOFs already
+    (one step: no rate): ValueError."""
     reached = np.flatnonzero(steps.dofs.to_numpy() >= max_dofs)
     if not len(reached):
         raise ValueError(f"max_dofs={max_dofs} is beyond the series {name!r}, which ends at "
                          f"{int(steps.dofs.iloc[-1])} DOFs; it must be at most that")
+    if reached[0] == 0:
+        raise ValueError(f"max_dofs={max_dofs} is reached by the start mesh of the series "
+                         f"{name!r} ({int(steps.dofs.iloc[0])} DOFs): no step to fit a rate "
+                         "through; it must exceed the start mesh's DOFs")
     return steps.iloc[:reached[0] + 1]
 
 
@@ -35,13 +40,15 @@ def change_tables(series: dict, max_dofs: int):
     """(summary, steps) of the series {case: Algorithm B's steps (dofs, error, eta,
     efficiency, theta, start_level)}, the first case the unchanged one.  Each series is
     cut at max_dofs; its errors are compared with the unchanged series' at the same DOFs
-    (log-log interpolation of the unchanged series; NaN outside its DOFs)."""
-    cases = {name: cut(df.sort_values("dofs").reset_index(drop=True), max_dofs, name)
-             for name, df in series.items()}
-    base = next(iter(cases.values()))
+    (log-log interpolation of the whole unchanged series, not cut; NaN outside its
+    DOFs)."""
+    series = {name: df.sort_values("dofs").reset_index(drop=True)
+              for name, df in series.items()}
+    cases = {name: cut(df, max_dofs, name) for name, df in series.items()}
+    base = next(iter(series.values()))
+    logn, loge = np.log(base.dofs.to_numpy(float)), np.log(base.error.to_numpy(float))
     rows = []
     for name, df in cases.items():
-        logn, loge = np.log(base.dofs.to_numpy(float)), np.log(base.error.to_numpy(float))
         x = np.log(df.dofs.to_numpy(float))
         inside = (x >= logn[0]) & (x <= logn[-1])
         at = np.where(inside, np.exp(np.interp(x, logn, loge)), np.nan)
@@ -59,7 +66,7 @@ def change_tables(series: dict, max_dofs: int):
         "start dofs": g.dofs.iloc[0], "Algorithm B steps": len(g), "last dofs": g.dofs.iloc[-1],
         "rate": fit_rate(g.dofs, g.error),
         "last local slope": g["local slope"].iloc[-1],
-        "smallest_error": g.error.iloc[-1],
+        "smallest_error": g.error.min(),
         "error / unchanged at the same DOFs": g["error / unchanged at the same DOFs"].iloc[-1]}
         for name, g in steps.groupby("case", sort=False)])
     return summary, steps
@@ -102,9 +109,10 @@ def main(series_table, change_files, changes, max_dofs, md, png):
             f"Example 1 (s = {s:g}, exact error) on adaptive meshes: Algorithm B as "
             "configured, and again with one of its settings changed at a time (start mesh "
             "disk_uniform(start_level); marking parameter θ), every series stopped after "
-            f"its first step with at least {max_dofs} DOFs. `rate` is fitted through every "
-            f"step of a series, as in the rate table{paper}; `error / unchanged at the "
-            "same DOFs` compares a step with the unchanged series at its DOFs.\n\n"
+            f"its first step with at least {max_dofs} DOFs, so their last DOFs differ "
+            "(`last dofs`). `rate` is fitted through every step of a series, as in the rate "
+            f"table{paper}; `error / unchanged at the same DOFs` compares a step with the "
+            "unchanged series at its DOFs (all its steps; nan beyond them).\n\n"
             + summary.to_markdown(index=False, floatfmt=".4g") + "\n\n"
             + steps.to_markdown(index=False, floatfmt=".4g") + "\n")
     fig, ax = plt.subplots(figsize=(5.5, 4))

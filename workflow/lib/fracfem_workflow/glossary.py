@@ -227,7 +227,7 @@ GROUPS = [
                              "is cut",
         "last dofs": "`dofs` of the series' last step",
         "marked": "triangles the step marks for refinement (the last step's too, which the "
-                  "series does not refine)",
+                  "series does not refine; −1: a step stopped by `max_steps` marks none)",
         "innermost marked radius": "distance from the disk's centre of the marked "
                                    "triangle nearest to it (its centroid's): how far "
                                    "inward the step refines (nan: none marked)",
