@@ -377,6 +377,22 @@ def test_quadrature_check_rank_beyond_the_series_is_refused(tmp_path):
 
 
 
+@pytest.mark.parametrize("changes, message", [
+    ("{start_level: [5], theta: [], max_dofs: 1500}",
+     "adaptive_changes.max_dofs=1500 must exceed the DOFs of every start mesh: "
+     "disk_uniform(5) has 1985"),
+    ("{start_level: [3], theta: [], max_dofs: 20000}",
+     "adaptive_changes.max_dofs=20000 must be at most example1.adaptive.max_dofs=15000"),
+])
+def test_adaptive_changes_that_cannot_be_compared_are_refused(tmp_path, changes, message):
+    """ex1-adaptive-rate.md fits a rate through every series from its start mesh, and cuts
+    the unchanged series at the changed ones' size: refused before any job runs."""
+    cfg = tmp_path / "a.yaml"
+    cfg.write_text(f"example1:\n  adaptive_changes: {changes}\n")
+    code, text = dry_run("--configfile", str(cfg), ok=False)
+    assert code != 0 and message in text
+
+
 def test_jobs_needing_one_operator_assemble_it_once(tmp_path):
     """Example 4's two initial values on one mesh: the second job reads the operator the
     first assembled (fracfem.opcache), with the same matrix, so the same t_assembly and

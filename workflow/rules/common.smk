@@ -11,6 +11,7 @@ from types import SimpleNamespace as Namespace
 import yaml
 from snakemake.utils import validate
 
+from fracfem.meshes import disk_uniform
 from fracfem.problems import series_tag   # the tag format the scripts parse
 
 
@@ -56,12 +57,19 @@ for _block in ("example1", "example2", "example3"):   # Example 1: the extrapola
                          f"list at least 3 meshes: reference.family="
                          f"{config['reference']['family']!r} extrapolates through its three "
                          "finest energies")
-# ex1-adaptive-rate.md cuts the pipeline's adaptive series at the changed series' size
+# ex1-adaptive-rate.md cuts the pipeline's adaptive series at the changed series' size, and
+# fits a rate through every series from its start mesh: at least two steps each
 _A, _C = config["example1"]["adaptive"], config["example1"]["adaptive_changes"]
 if _C["max_dofs"] > _A["max_dofs"]:
     raise ValueError(f"config example1.adaptive_changes.max_dofs={_C['max_dofs']} must be at "
                      f"most example1.adaptive.max_dofs={_A['max_dofs']}: the unchanged series "
                      "is cut there")
+for _lv in sorted(set(_C["start_level"]) | {_A["start_level"]}):
+    _m = disk_uniform(_lv)
+    if _m.p.shape[1] - len(_m.boundary_nodes()) >= _C["max_dofs"]:
+        raise ValueError(f"config example1.adaptive_changes.max_dofs={_C['max_dofs']} must "
+                         f"exceed the DOFs of every start mesh: disk_uniform({_lv}) has "
+                         f"{_m.p.shape[1] - len(_m.boundary_nodes())}")
 
 
 def _science(cfg):
