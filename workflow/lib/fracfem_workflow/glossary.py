@@ -232,8 +232,9 @@ GROUPS = [
                                    "triangle nearest to it (its centroid's): how far "
                                    "inward the step refines (nan: none marked)",
         "error / unchanged at the same DOFs": "`error` over the unchanged series' error at "
-                                              "the same `dofs` (log–log interpolated; nan "
-                                              "outside its DOFs)",
+                                              "the same `dofs`, log–log interpolated "
+                                              "between all its steps, not only those up "
+                                              "to the cut (nan beyond its last step)",
     }),
     ("Example 5's uniform rate (`ex5-uniform-rate.md`)", False, {
         "case": "Example 5 as configured, or one change of it (`Example 5, τ/m`: its "
