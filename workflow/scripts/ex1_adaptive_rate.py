@@ -124,7 +124,7 @@ def main(series_table, change_files, changes, max_dofs, md, png):
     ax.set_ylabel(ERROR_LABELS["elliptic"])
     ax.set_title(f"Example 1 ($s = {s:g}$): Algorithm B with one setting changed\n"
                  f"legend: rate through all steps{paper.replace('the paper:', 'paper')}")
-    legend_below(ax, ncols=1 if len(summary) <= 3 else 2)   # two columns: wider than the axes
+    legend_below(ax)      # one column: two would be wider than the axes
     save(fig, png)
 
 
