@@ -115,7 +115,7 @@ def main(series_table, change_files, changes, max_dofs, md, png):
             "unchanged series at its DOFs (all its steps; nan beyond them).\n\n"
             + summary.to_markdown(index=False, floatfmt=".4g") + "\n\n"
             + steps.to_markdown(index=False, floatfmt=".4g") + "\n")
-    fig, ax = plt.subplots(figsize=(5.5, 4))
+    fig, ax = plt.subplots(figsize=(5.5, 5))   # the legend below takes a line per series
     for i, (name, g) in enumerate(steps.groupby("case", sort=False)):
         rate = summary.loc[summary.case == name, "rate"].iloc[0]
         ax.loglog(g.dofs, g.error, marker="^osDvP*"[i % 7], ls="-" if i == 0 else ":",
