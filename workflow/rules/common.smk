@@ -11,7 +11,7 @@ from types import SimpleNamespace as Namespace
 import yaml
 from snakemake.utils import validate
 
-from fracfem.meshes import disk_uniform
+from fracfem.meshes import disk_uniform, interior_nodes
 from fracfem.problems import series_tag   # the tag format the scripts parse
 
 
@@ -65,11 +65,10 @@ if _C["max_dofs"] > _A["max_dofs"]:
                      f"most example1.adaptive.max_dofs={_A['max_dofs']}: the unchanged series "
                      "is cut there")
 for _lv in sorted(set(_C["start_level"]) | {_A["start_level"]}):
-    _m = disk_uniform(_lv)
-    if _m.p.shape[1] - len(_m.boundary_nodes()) >= _C["max_dofs"]:
+    _n = len(interior_nodes(disk_uniform(_lv)))
+    if _n >= _C["max_dofs"]:
         raise ValueError(f"config example1.adaptive_changes.max_dofs={_C['max_dofs']} must "
-                         f"exceed the DOFs of every start mesh: disk_uniform({_lv}) has "
-                         f"{_m.p.shape[1] - len(_m.boundary_nodes())}")
+                         f"exceed the DOFs of every start mesh: disk_uniform({_lv}) has {_n}")
 
 
 def _science(cfg):

@@ -16,6 +16,7 @@ from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import DOFS, ERROR_LABELS, legend_below, plt, save
 from fracfem_workflow.report import fit_rate, local_slopes, paper_rate
+from fracfem_workflow.runs import mismatched_parameters, parameter_names
 
 UNCHANGED = "as configured"
 
@@ -92,16 +93,17 @@ def main(series_table, change_files, changes, max_dofs, md, png):
     s = float(series[UNCHANGED].s.iloc[0])
     paper = paper_rate(1, "adaptive", s)
     paper = "" if paper is None else f" (the paper: {paper:.3f})"
-    base = series[UNCHANGED]
-    settings = ["s", "theta", "start_level", "marking", "operator"] + [
-        c for c in base.columns if c.startswith("quadrature_")]
+    base = series[UNCHANGED].iloc[0]
+    # every recorded setting but where the series stop (max_dofs), which may differ
+    settings = ["s"] + [c for c in parameter_names(base.index) if c != "max_dofs"]
     for (name, change), f in zip(changes.items(), change_files):
         df = pd.read_csv(f)
-        for key in settings:
-            value = change.get(key, base[key].iloc[0])
-            if key not in df or not (df[key] == value).all():
-                raise ValueError(f"{f} was not run with {key} = {value} (case {name!r}: "
-                                 "the unchanged series' settings, with this change)")
+        expected = {key: change.get(key, base[key]) for key in settings}
+        differ = mismatched_parameters(df.iloc[0].to_dict(), expected)
+        if differ:
+            raise ValueError(f"{f} was not run with {differ[0]} = {expected[differ[0]]} "
+                             f"(case {name!r}: the unchanged series' settings, with this "
+                             "change)")
         series[name] = df
     summary, steps = change_tables(series, max_dofs)
     with atomic_path(md) as tmp:
