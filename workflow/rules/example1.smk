@@ -98,7 +98,7 @@ rule ex1_adaptive_rate:
             subcategory="Further figures",
         ),
     params:
-        changes={f"{k} = {v}": change for c, change in EX1_CHANGES.items()
+        changes={f"{k} = {v}": change for change in EX1_CHANGES.values()
                  for k, v in change.items()},
         max_dofs=EX1["adaptive_changes"]["max_dofs"],
     log:
