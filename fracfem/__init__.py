@@ -11,8 +11,8 @@ Long computations report progress through the ``logging`` module (loggers
 ``fracfem.<module>``); nothing is shown unless the application configures
 logging, e.g. ``logging.basicConfig(level=logging.INFO)``.
 """
-from .meshes import (disk_graded, disk_graded_aniso, disk_graded_rings, disk_uniform, lshape,
-                     refine_disk, square)
+from .meshes import (disk_graded, disk_graded_aniso, disk_graded_rings, disk_uniform,
+                     graded_ring_count, lshape, refine_disk, square)
 
 from .assembly import (QuadratureOptions, energy, exterior_kernel, load_vector,
                        stiffness_matrix)
@@ -30,7 +30,7 @@ from .mixed import (Friction, Obstacle, ThinFriction, ThinObstacle, coupling_mat
 from .solvers import ConvergenceError, pdas, uzawa
 from .vi import MixedProblem, mixed_problem
 from .vi import solve as solve_mixed
-from .kkt import discrete_energy, friction_functional, kkt_report
+from .kkt import contact_set, discrete_energy, friction_functional, kkt_report
 
 from .adaptive import algorithm_b, algorithm_b_steps, mark_doerfler, mark_maximum
 from .estimators import estimate, estimate_laplace
@@ -56,7 +56,8 @@ _logging.getLogger(__name__).addHandler(_logging.NullHandler())
 
 __all__ = [
     # meshes
-    "disk_uniform", "disk_graded", "disk_graded_aniso", "disk_graded_rings", "square", "lshape", "refine_disk",
+    "disk_uniform", "disk_graded", "disk_graded_aniso", "disk_graded_rings", "graded_ring_count",
+    "square", "lshape", "refine_disk",
     # the fractional Laplacian: assembly, exact solutions, the unconstrained problem
     "QuadratureOptions", "stiffness_matrix", "load_vector", "energy", "exterior_kernel",
     "c2s", "disk_energy", "disk_solution", "disk_solution_constant",
@@ -68,7 +69,7 @@ __all__ = [
     "Obstacle", "Friction", "ThinObstacle", "ThinFriction",
     "coupling_matrix", "obstacle_from_function", "friction_bound",
     "uzawa", "pdas", "ConvergenceError",
-    "discrete_energy", "friction_functional", "kkt_report",
+    "contact_set", "discrete_energy", "friction_functional", "kkt_report",
     # a posteriori indicators (Section 7) and Algorithm B
     "estimate", "estimate_laplace",
     "mark_maximum", "mark_doerfler", "algorithm_b", "algorithm_b_steps",

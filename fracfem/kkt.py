@@ -18,7 +18,7 @@ import numpy as np
 from .assembly import energy
 from .laplace import Discretisation
 
-__all__ = ["discrete_energy", "friction_functional", "kkt_report"]
+__all__ = ["contact_set", "discrete_energy", "friction_functional", "kkt_report"]
 
 
 def _free_values(disc, u) -> np.ndarray:
@@ -54,6 +54,15 @@ def discrete_energy(prob, u) -> float:
     return e
 
 
+def contact_set(lam, *, rtol: float = 1e-9) -> np.ndarray:
+    """The multipliers λ_H of an obstacle problem at contact: λ < −rtol · max |λ| (a
+    boolean mask, as :func:`kkt_report` counts them; all False when λ ≡ 0)."""
+    lam = np.asarray(lam, dtype=float)
+    if lam.ndim != 1:
+        raise ValueError(f"lam must hold one value per multiplier (1-d), got shape {lam.shape}")
+    return lam < -rtol * max(np.abs(lam).max(initial=0.0), 1e-300)
+
+
 def kkt_report(prob, u, lam, *, rtol: float = 1e-9) -> dict:
     """How well (u, λ) satisfies the KKT conditions of ``prob``, and its active sets.
 
@@ -70,11 +79,9 @@ def kkt_report(prob, u, lam, *, rtol: float = 1e-9) -> dict:
     if lam.shape != (cs.n_multipliers,):
         raise ValueError(f"lam must have shape ({cs.n_multipliers},), got {lam.shape}")
     y = cs.B.T @ uf - cs.g
-    scale = max(np.abs(lam).max(), 1e-300)
     out = {"multipliers": len(lam), "lambda_in_set": bool(cs.contains(lam, 0.0))}
     if prob.kind.endswith("obstacle"):
-        contact = lam < -rtol * scale
-        out.update(contact=int(contact.sum()),
+        out.update(contact=int(contact_set(lam, rtol=rtol).sum()),
                    min_gap=float(y.min()),
                    max_complementarity=float(np.abs(lam * y).max()))
     else:

@@ -26,6 +26,7 @@ __all__ = [
     "disk_graded",
     "disk_graded_rings",
     "disk_graded_aniso",
+    "graded_ring_count",
     "square",
     "lshape",
     "refine_disk",
@@ -380,6 +381,14 @@ def disk_graded_rings(n: int, grading: float = 2.0, *, layer: float | None = Non
     return mesh_from_arrays(p, t)
 
 
+def graded_ring_count(h: float) -> int:
+    """The number of rings n = ceil(1/h) of :func:`disk_graded_aniso` (h in [1/2000, 1/2]),
+    whose mesh is ``disk_graded_rings(n, grading)``: h and h' give the same mesh when
+    their ring counts agree."""
+    h = _check_float("h", h, 1.0 / 2000.0, 0.5)
+    return int(np.ceil(1.0 / h - 1e-9))
+
+
 def disk_graded_aniso(h: float, grading: float = 2.0) -> MeshTri:
     """Anisotropic algebraically graded mesh of the unit disk (the paper's graded family).
 
@@ -399,9 +408,8 @@ def disk_graded_aniso(h: float, grading: float = 2.0) -> MeshTri:
         Grading exponent μ in [1, 4]; 1 gives a quasi-uniform mesh.  The
         thinnest layer, ceil(1/h)^(−μ), must be at least 1e-10.
     """
-    h = _check_float("h", h, 1.0 / 2000.0, 0.5)
+    n = graded_ring_count(h)
     grading = _check_float("grading", grading, 1.0, 4.0)
-    n = int(np.ceil(1.0 / h - 1e-9))
     if float(n) ** -grading < 1e-10:
         raise ValueError(f"h={h} with grading={grading} gives a boundary layer of thickness "
                          f"ceil(1/h)**(-grading) = {float(n) ** -grading:.1e} < 1e-10, not "

@@ -94,6 +94,11 @@ class Example2:
         object.__setattr__(self, "s", check_s(self.s))
         examples.paraboloid_obstacle(self.height, self.slope)      # checks the data
 
+    @property
+    def obstacle(self):
+        """χ(x) = height − slope |x|², a function of points x of shape (2, ...)."""
+        return examples.paraboloid_obstacle(self.height, self.slope)
+
     def problem(self, coarse, quadrature: QuadratureOptions | None = None,
                 operator: str = "dense"):
         """The mixed problem on T_H = coarse."""
@@ -156,13 +161,17 @@ class Example4:
     def initial_value(self) -> float:
         return self.u0
 
+    @property
+    def obstacle(self):
+        """χ(x) = height − slope |x|², a function of points x of shape (2, ...)."""
+        return examples.paraboloid_obstacle(self.height, self.slope)
+
     def problem(self, coarse, quadrature: QuadratureOptions | None = None,
                 operator: str = "dense", stiffness=None):
         """The mixed problem of one time step's space discretisation on T_H = coarse;
         stiffness: the ``disc`` of a problem on the same mesh and s, to reuse its
         operator (:func:`fracfem.vi.mixed_problem`)."""
-        chi = examples.paraboloid_obstacle(self.height, self.slope)
-        return vi.mixed_problem("obstacle", coarse, self.s, self.f, chi=chi,
+        return vi.mixed_problem("obstacle", coarse, self.s, self.f, chi=self.obstacle,
                                 quadrature=quadrature, operator=operator,
                                 stiffness=stiffness)
 

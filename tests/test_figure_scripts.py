@@ -1063,3 +1063,86 @@ def test_time_split_refuses_a_graded_error_measured_against_another_family(tmp_p
     with pytest.raises(ValueError, match=r"graded run h0\.4: error .* another family"):
         split.graded_series(prob_of, ex, known.assign(error=stored * (1 + 1e-4)), [0.4],
                             2.0, 0.5, T, [1, 4], 1e-10, reference, "ex4-u2")
+
+
+def _ring_rows(ns, dofs, energy, lifted, contact=12, radius=0.2):
+    return pd.DataFrame({"problem": "ex2", "n": ns, "dofs": dofs, "energy": energy,
+                         "lifted energy": lifted, "largest dip": 0.01,
+                         "contact elements": contact, "contact radius": radius,
+                         "grading": 2.0})
+
+
+def test_ex2_graded_rings_fits_every_window_and_both_measures():
+    """Errors on one power law give that rate in every window and family; the dip's share
+    is (E(ũ) − E(u_h)) / (E(ũ) − E_ref); a ring count with an energy below E_ref, or an
+    error within 3× the reference's, is not fitted."""
+    page = script("vi_graded_rings_page")
+    ns = np.arange(4, 17)
+    dofs = 25 * ns ** 2
+    e_ref = -1.0
+    err = 0.5 * dofs.astype(float) ** -0.5          # error 0.5 N^(-1/2)
+    lifted_err = 2 * err                            # lifted: twice, same rate
+    energy = e_ref + err ** 2 / 2
+    lifted = e_ref + lifted_err ** 2 / 2
+    energy[0] = e_ref - 0.1                         # n = 4 below the reference
+    rings = _ring_rows(ns, dofs, energy, lifted)
+    table = page.ring_table(rings, e_ref, 1e-4, 0.25, [4, 8, 16])
+    assert not table.fitted.iloc[0] and table.fitted.iloc[1:].all()
+    assert table.error.iloc[1:].to_numpy() == pytest.approx(err[1:])
+    assert table["lifted error"].iloc[1:].to_numpy() == pytest.approx(lifted_err[1:])
+    share = (lifted - energy) / (lifted - e_ref)
+    assert table["dip's share"].to_numpy() == pytest.approx(share)
+    assert np.isnan(table["local slope"].iloc[1])   # its smaller neighbour is not fitted
+    assert table["local slope"].iloc[2:].to_numpy() == pytest.approx(-0.5)
+    assert table["contact radius / reference"].to_numpy() == pytest.approx(0.8)
+    rates = page.window_rates(table, [4, 8, 16]).set_index("fitted through")
+    assert rates.loc["graded series", "ring counts"] == "8, 16"   # 4 is not fitted
+    assert rates.rate.to_numpy() == pytest.approx(-0.5)
+    assert rates["lifted rate"].to_numpy() == pytest.approx(-0.5)
+    assert rates.loc["n = 5, 10, … (h halved)", "ring counts"] == "5, 10"
+    assert rates.loc["n = 8, 16, … (h halved)", "points"] == 2
+    assert "n = 9, 18, … (h halved)" not in rates.index         # 18 is not run
+    # every window from n on keeps at least four ring counts
+    assert rates.loc["every ring count from n = 13", "points"] == 4
+    assert "every ring count from n = 14" not in rates.index
+    # a reference error of 0.02 leaves the smaller errors out of every fit
+    strict = page.ring_table(rings, e_ref, 0.02, 0.25, [4, 8, 16])
+    assert strict.fitted.to_numpy().tolist() == list((err > 0.06) & (np.arange(13) > 0))
+
+
+def test_ex2_graded_rings_checks_the_series_runs_are_among_them():
+    """The graded series' run of h is the ring-count run n = ceil(1/h): same DOFs and
+    energy, else ValueError; a series ring count outside the range is refused."""
+    page = script("vi_graded_rings_page")
+    rings = _ring_rows([8, 9, 10], [1076, 1354, 1700], [-0.62, -0.63, -0.631],
+                       [-0.61, -0.62, -0.63])
+    series = pd.DataFrame({"tag": ["h0.14", "h0.1"], "dofs": [1076, 1700],
+                           "energy": [-0.62, -0.631]})
+    assert list(page.series_rings(series, rings)) == [8, 10]
+    with pytest.raises(ValueError, match="is not the ring-count run n = 10"):
+        page.series_rings(series.assign(energy=[-0.62, -0.6312]), rings)
+    with pytest.raises(ValueError, match=r"ring counts \[20\] lie outside"):
+        page.series_rings(pd.DataFrame({"tag": ["h0.05"], "dofs": [6963],
+                                        "energy": [-0.63]}), rings)
+
+
+def test_vi_graded_rings_records_the_lift_and_the_contact_set(tmp_path):
+    """Two small ring counts: the series' DOFs; the lift meets χ at every free node, and
+    E(ũ_h) ≥ E(u_h) here; the contact set is the λ_H < 0 elements; a problem without
+    an obstacle is refused before any solve."""
+    run = script("vi_graded_rings")
+    out = tmp_path / "rings.csv"
+    run.main("ex2", "ex2", {"s": 0.5, "height": 1.0, "slope": 4.0}, [5, 6], 2.0, 1e-10, {},
+             str(out))
+    df = pd.read_csv(out)
+    assert df.n.tolist() == [5, 6]
+    assert df.dofs.tolist() == [401, 591]                # the graded series' h0.2 has 401
+    assert (df["lifted energy"] >= df.energy).all()
+    assert (df["largest dip"] > 0).all()                 # u_h dips below χ on these meshes
+    assert (df["contact elements"] > 0).all() and (df["contact radius"] > 0).all()
+    with pytest.raises(ValueError, match="problem='ex3-printed' .* has no obstacle"):
+        run.main("ex3-printed", "ex3", {"s": 0.6, "a": 1.0, "b": 0.0, "F": 0.5}, [5, 6],
+                 2.0, 1e-10, {}, str(tmp_path / "x.csv"))
+    with pytest.raises(ValueError, match=r"rings=\[6, 5\] must be"):
+        run.main("ex2", "ex2", {"s": 0.5}, [6, 5], 2.0, 1e-10, {}, str(tmp_path / "x.csv"))
+    assert not (tmp_path / "x.csv").exists()

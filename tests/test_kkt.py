@@ -104,6 +104,10 @@ def test_kkt_report_of_an_exact_obstacle_solution_is_zero():
     prob.disc.b = prob.disc.A @ uf + prob.cset.B @ lam
     rep = kkt.kkt_report(prob, prob.disc.extend(uf), lam)
     assert rep["lambda_in_set"] and rep["contact"] == contact.sum()
+    assert np.array_equal(kkt.contact_set(lam), contact)
+    assert not kkt.contact_set(np.zeros(m)).any()
+    with pytest.raises(ValueError, match="one value per multiplier"):
+        kkt.contact_set(lam[None, :])
     assert rep["max_complementarity"] == 0.0
     assert abs(rep["min_gap"]) < 1e-14
     assert rep["max_stationarity_residual"] < 1e-12 * np.abs(prob.disc.b).max()

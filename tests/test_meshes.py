@@ -240,6 +240,22 @@ def test_disk_graded_aniso_rejects(kwargs, match):
         disk_graded_aniso(**kwargs)
 
 
+@pytest.mark.parametrize("h, n", [(0.4, 3), (0.25, 4), (0.14, 8), (0.1, 10), (0.07, 15),
+                                  (0.05, 20), (1 / 3, 3)])
+def test_graded_ring_count_names_the_rings_mesh_of_h(h, n):
+    """disk_graded_aniso(h) is disk_graded_rings(ceil(1/h)); h = 1/n exactly keeps n."""
+    from fracfem.meshes import disk_graded_rings, graded_ring_count
+    assert graded_ring_count(h) == n
+    a, b = disk_graded_aniso(h), disk_graded_rings(n)
+    assert np.array_equal(a.p, b.p) and np.array_equal(a.t, b.t)
+
+
+def test_graded_ring_count_rejects_h_outside_its_range():
+    from fracfem.meshes import graded_ring_count
+    with pytest.raises(ValueError, match=r"h .*\[0.0005, 0.5\].*0.7"):
+        graded_ring_count(0.7)
+
+
 # ------------------------------------------------------------ square / lshape
 
 @pytest.mark.parametrize("n", [1, 2, 7])

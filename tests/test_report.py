@@ -308,3 +308,26 @@ def test_eta_energy_time_swaps_the_time_term():
                          "eta2_time_anorm": [7.0, 1.0]})
     np.testing.assert_allclose(eta_energy_time(runs), [4.0, np.sqrt(2.0)])
     assert eta_energy_time(runs.drop(columns="eta2_time_anorm")).isna().all()
+
+
+def test_contact_extent_counts_the_contact_elements_and_their_area():
+    """All of a disk mesh in contact: every element, and √(area/π) of its polygon; none: 0;
+    one multiplier per triangle or ValueError."""
+    import fracfem as ff
+    from fracfem_workflow.report import contact_extent
+    m = ff.disk_uniform(3)
+    p, t = m.p, m.t
+    a, b, c = (p[:, t[k]] for k in range(3))
+    area = 0.5 * np.abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).sum()
+    full = contact_extent(p, t, -np.ones(t.shape[1]))
+    assert full["contact elements"] == t.shape[1]
+    assert full["contact radius"] == pytest.approx(np.sqrt(area / np.pi))
+    assert full["contact radius"] < 1.0
+    lam = np.zeros(t.shape[1])
+    assert contact_extent(p, t, lam) == {"contact elements": 0, "contact radius": 0.0}
+    inner = np.linalg.norm(p[:, t].mean(axis=1), axis=0) < 0.3
+    lam[inner] = -1.0
+    got = contact_extent(p, t, lam)
+    assert got["contact elements"] == inner.sum() and 0 < got["contact radius"] < 0.5
+    with pytest.raises(ValueError, match="one multiplier per triangle"):
+        contact_extent(p, t, lam[:-1])

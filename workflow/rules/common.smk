@@ -11,7 +11,7 @@ from types import SimpleNamespace as Namespace
 import yaml
 from snakemake.utils import validate
 
-from fracfem.meshes import disk_uniform, interior_nodes
+from fracfem.meshes import disk_uniform, graded_ring_count, interior_nodes
 from fracfem.problems import series_tag   # the tag format the scripts parse
 
 
@@ -69,6 +69,15 @@ for _lv in sorted(set(_C["start_level"]) | {_A["start_level"]}):
     if _n >= _C["max_dofs"]:
         raise ValueError(f"config example1.adaptive_changes.max_dofs={_C['max_dofs']} must "
                          f"exceed the DOFs of every start mesh: disk_uniform({_lv}) has {_n}")
+
+# ex2-graded-rings.md runs the graded family at every ring count of example2.graded_rings;
+# the graded series' meshes (n = ceil(1/h)) must be among them
+_first, _last = config["example2"]["graded_rings"]
+_series_n = sorted({graded_ring_count(h) for h in config["example2"]["graded_h"]})
+if not _first <= _last or _series_n[0] < _first or _series_n[-1] > _last:
+    raise ValueError(f"config example2.graded_rings={[_first, _last]} must be [first, last] "
+                     f"ring counts, first <= last, holding the graded series' ring counts "
+                     f"{_series_n} (graded_h={config['example2']['graded_h']}: n = ceil(1/h))")
 
 
 def _science(cfg):

@@ -394,3 +394,55 @@ rule elliptic_error_vs_time:
         ENV
     script:
         "../scripts/elliptic_time.py"
+
+
+rule vi_graded_rings:
+    output:
+        table=f"{RES}/vi/{{problem}}/graded-rings.csv",
+    log:
+        f"{RES}/logs/vi/{{problem}}_graded_rings.log",
+    benchmark:
+        f"{RES}/benchmarks/vi/{{problem}}_graded_rings.tsv"
+    wildcard_constraints:
+        problem="ex2",
+    params:
+        example=vi_example,
+        data=vi_data,
+        rings=EX2["graded_rings"],
+        grading=GRADING,
+        tol=SOLVER["tol"],
+        quadrature=QUADRATURE,
+    threads: JOB_THREADS
+    conda:
+        ENV
+    script:
+        "../scripts/vi_graded_rings.py"
+
+
+rule ex2_graded_rings:
+    input:
+        rings=path(rules.vi_graded_rings.output.table, problem="ex2"),
+        reference=path(rules.vi_errors.output.json, problem="ex2"),
+        errors=path(rules.vi_errors.output.csv, problem="ex2"),
+        meshes=lambda wildcards: large_reference(Namespace(problem="ex2"), kind="meshes"),
+    output:
+        md=report(
+            f"{OUT}/ex2-graded-rings.md",
+            caption="../../report/captions/ex2-graded-rings.rst",
+            category="Example 2 (obstacle)",
+            subcategory="Tables",
+        ),
+        png=report(
+            f"{OUT}/extra-ex2-graded-rings.png",
+            caption="../../report/captions/ex2-graded-rings.rst",
+            category="Example 2 (obstacle)",
+            subcategory="Further figures",
+        ),
+    log:
+        f"{RES}/logs/ex2_graded_rings.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/ex2_graded_rings.tsv"
+    conda:
+        ENV
+    script:
+        "../scripts/vi_graded_rings_page.py"

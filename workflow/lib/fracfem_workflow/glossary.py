@@ -236,6 +236,29 @@ GROUPS = [
                                               "between all its steps, not only those up "
                                               "to the cut (nan beyond its last step)",
     }),
+    ("Example 2's graded family at every ring count (`ex2-graded-rings.md`)", False, {
+        "n": "ring count of T_H = `disk_graded_rings(n)`; the graded series' "
+             "`disk_graded_aniso(h)` is n = ceil(1/h)",
+        "fitted through": "the ring counts a rate is fitted through: the graded series', "
+                          "every one, every one from n on, or n, 2n, 4n, … (h halved)",
+        "ring counts": "the ring counts of that fit (fitted ones only)",
+        "points": "how many ring counts the fit has",
+        "lifted rate": "the same fit of `lifted error`",
+        "lifted energy": "E(ũ_h) for ũ_h = max(u_h, χ) at the fine nodes (0 on ∂Ω), which "
+                         "meets the constraint at every node",
+        "lifted error": "√(2|E(ũ_h) − E_ref|); for a feasible v, E(v) − E(u) ≥ ½‖v − u‖²_a",
+        "fitted": "both energies not below E_ref and both errors above 3× the reference's "
+                  "own error: the ring count enters the fits",
+        "lifted local slope": "`local slope` of `lifted error`",
+        "largest dip": "max(χ − u_h) over the free fine nodes: how far the averaged "
+                       "constraint lets u_h dip below χ (≤ 0: nowhere)",
+        "dip's share": "(E(ũ_h) − E(u_h)) / (E(ũ_h) − E_ref): the part of the lifted energy "
+                       "error that the dip below χ takes off E(u_h)",
+        "contact elements": "elements of T_H where λ_H < 0 (contact)",
+        "contact radius / reference": "√(area/π) of those elements over the same of the "
+                                      "large reference run's last mesh",
+        "in graded series": "whether the graded series (`example2.graded_h`) has this n",
+    }),
     ("Example 5's uniform rate (`ex5-uniform-rate.md`)", False, {
         "case": "Example 5 as configured, or one change of it (`Example 5, τ/m`: its "
                 "uniform runs on the same meshes with m× the time steps, against its family)",

@@ -7,7 +7,8 @@ import pandas as pd
 __all__ = ["PAPER_RATES", "PAPER_S", "REFERENCE_MARGIN", "paper_rate", "fit_rate", "fit_mask",
            "masked_rate",
            "rate_table", "extrapolate_energy", "extrapolation_uncertainty",
-           "energy_error", "time_to_reach", "algorithm_c_table", "PARTS", "whole_numbers"]
+           "energy_error", "contact_extent", "time_to_reach", "algorithm_c_table", "PARTS",
+           "whole_numbers"]
 
 # error in H^s vs DOFs (parabolic: vs space-time DOFs), paper Section 8
 PAPER_RATES = {
@@ -343,6 +344,24 @@ def with_fit_bound(df):
 def energy_error(energy, reference) -> np.ndarray:
     """√(2 |E(u_h) − E_ref|): the energy-norm error for Example 1 (exact there)."""
     return np.sqrt(2.0 * np.abs(np.asarray(energy, dtype=float) - reference))
+
+
+def contact_extent(points, triangles, lam) -> dict:
+    """The discrete contact set of an obstacle problem whose multipliers λ_H belong to the
+    triangles of T_H (points 2×N, triangles 3×M, lam M values): its number of elements
+    (`contact elements`) and the radius of the disk of its area, √(area/π) (`contact
+    radius`; 0 without contact)."""
+    from fracfem import contact_set
+    p, t = np.asarray(points, dtype=float), np.asarray(triangles)
+    lam = np.asarray(lam, dtype=float)
+    if lam.shape != (t.shape[1],):
+        raise ValueError(f"lam has shape {lam.shape}, T_H {t.shape[1]} triangles: "
+                         "the contact set needs one multiplier per triangle")
+    contact = contact_set(lam)
+    a, b, c = (p[:, t[k, contact]] for k in range(3))
+    area = 0.5 * np.abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).sum()
+    return {"contact elements": int(contact.sum()),
+            "contact radius": float(np.sqrt(area / np.pi))}
 
 
 def time_to_reach(wall_times, errors, level) -> float:
