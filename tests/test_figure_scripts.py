@@ -1074,13 +1074,14 @@ def _ring_rows(ns, dofs, energy, lifted, contact=12, radius=0.2):
 
 def test_ex2_graded_rings_fits_every_window_and_both_measures():
     """Errors on one power law give that rate in every window and family; the dip's share
-    is (E(ũ) − E(u_h)) / (E(ũ) − E_ref); a ring count with an energy below E_ref, or an
-    error within 3× the reference's, is not fitted."""
+    is (E(ũ) − E(u_h)) / (E(ũ) − E_ref), nan below E_ref; a ring count with an energy
+    below E_ref, or an error within 3× the reference's, is not fitted (each measure
+    apart)."""
     page = script("vi_graded_rings_page")
     ns = np.arange(4, 17)
     dofs = 25 * ns ** 2
     e_ref = -1.0
-    err = 0.5 * dofs.astype(float) ** -0.5          # error 0.5 N^(-1/2)
+    err = 0.5 * dofs.astype(float) ** -0.5          # error 0.5 N^(-1/2) = 0.1/n
     lifted_err = 2 * err                            # lifted: twice, same rate
     energy = e_ref + err ** 2 / 2
     lifted = e_ref + lifted_err ** 2 / 2
@@ -1088,26 +1089,36 @@ def test_ex2_graded_rings_fits_every_window_and_both_measures():
     rings = _ring_rows(ns, dofs, energy, lifted)
     table = page.ring_table(rings, e_ref, 1e-4, 0.25, [4, 8, 16])
     assert not table.fitted.iloc[0] and table.fitted.iloc[1:].all()
+    assert table["lifted fitted"].all()             # its energy lies above E_ref
     assert table.error.iloc[1:].to_numpy() == pytest.approx(err[1:])
-    assert table["lifted error"].iloc[1:].to_numpy() == pytest.approx(lifted_err[1:])
-    share = (lifted - energy) / (lifted - e_ref)
-    assert table["dip's share"].to_numpy() == pytest.approx(share)
+    assert table["lifted error"].to_numpy() == pytest.approx(lifted_err)
+    # E(ũ) − E_ref = 4 (E(u_h) − E_ref): the dip takes off three quarters
+    assert np.isnan(table["dip's share"].iloc[0])
+    assert table["dip's share"].iloc[1:].to_numpy() == pytest.approx(0.75)
     assert np.isnan(table["local slope"].iloc[1])   # its smaller neighbour is not fitted
     assert table["local slope"].iloc[2:].to_numpy() == pytest.approx(-0.5)
+    assert table["lifted local slope"].iloc[1:].to_numpy() == pytest.approx(-0.5)
     assert table["contact radius / reference"].to_numpy() == pytest.approx(0.8)
     rates = page.window_rates(table, [4, 8, 16]).set_index("fitted through")
     assert rates.loc["graded series", "ring counts"] == "8, 16"   # 4 is not fitted
+    # the lift is fitted at n = 4 too, but the rows fit the error's ring counts
+    assert rates.loc["graded series", "lifted points"] == 2
     assert rates.rate.to_numpy() == pytest.approx(-0.5)
     assert rates["lifted rate"].to_numpy() == pytest.approx(-0.5)
     assert rates.loc["n = 5, 10, … (h halved)", "ring counts"] == "5, 10"
+    assert rates.loc["n = 6, 12, … (h halved)", "points"] == 2
+    # a family is named by its smallest fitted member: 5, 10 but not 10 alone, nor 8, 16
+    # (4 is not fitted, so 8 starts it)
     assert rates.loc["n = 8, 16, … (h halved)", "points"] == 2
+    assert "n = 10, 20, … (h halved)" not in rates.index
     assert "n = 9, 18, … (h halved)" not in rates.index         # 18 is not run
-    # every window from n on keeps at least four ring counts
+    # every window from n on keeps at least four ring counts, n among them
     assert rates.loc["every ring count from n = 13", "points"] == 4
     assert "every ring count from n = 14" not in rates.index
-    # a reference error of 0.02 leaves the smaller errors out of every fit
-    strict = page.ring_table(rings, e_ref, 0.02, 0.25, [4, 8, 16])
-    assert strict.fitted.to_numpy().tolist() == list((err > 0.06) & (np.arange(13) > 0))
+    # a reference error of 0.004: the errors 0.1/n above 0.012 (n <= 8) are fitted
+    strict = page.ring_table(rings, e_ref, 0.004, 0.25, [4, 8, 16])
+    assert strict.n[strict.fitted].tolist() == [5, 6, 7, 8]
+    assert strict.n[strict["lifted fitted"]].tolist() == list(range(4, 17))
 
 
 def test_ex2_graded_rings_checks_the_series_runs_are_among_them():
@@ -1127,9 +1138,9 @@ def test_ex2_graded_rings_checks_the_series_runs_are_among_them():
 
 
 def test_vi_graded_rings_records_the_lift_and_the_contact_set(tmp_path):
-    """Two small ring counts: the series' DOFs; the lift meets χ at every free node, and
-    E(ũ_h) ≥ E(u_h) here; the contact set is the λ_H < 0 elements; a problem without
-    an obstacle is refused before any solve."""
+    """Two small ring counts: the series' DOFs; E(ũ_h) ≥ E(u_h) here; the lift is χ where
+    u_h dips below it and u_h elsewhere at the free nodes, 0 on ∂Ω; the contact set is
+    there; a problem without an obstacle is refused before any solve."""
     run = script("vi_graded_rings")
     out = tmp_path / "rings.csv"
     run.main("ex2", "ex2", {"s": 0.5, "height": 1.0, "slope": 4.0}, [5, 6], 2.0, 1e-10, {},
@@ -1139,6 +1150,16 @@ def test_vi_graded_rings_records_the_lift_and_the_contact_set(tmp_path):
     assert df.dofs.tolist() == [401, 591]                # the graded series' h0.2 has 401
     assert (df["lifted energy"] >= df.energy).all()
     assert (df["largest dip"] > 0).all()                 # u_h dips below χ on these meshes
+    # the lift itself: χ at the nodes where u_h dips, u_h elsewhere, 0 on ∂Ω
+    prob = ff.example("ex2").problem(ff.disk_graded_rings(5))
+    u, _, _ = ff.vi.solve(prob, "pdas", tol=1e-10)
+    chi = ff.example("ex2").obstacle(prob.fine.p)
+    lift, dip = run.lifted(prob, u, ff.example("ex2").obstacle)
+    free = prob.disc.free
+    boundary = np.setdiff1d(np.arange(len(u)), free)
+    assert np.all(lift[free] >= chi[free]) and np.all(lift[boundary] == 0.0)
+    assert np.array_equal(lift[free], np.maximum(u[free], chi[free]))
+    assert dip == pytest.approx((chi[free] - u[free]).max()) and dip > 0
     assert (df["contact elements"] > 0).all() and (df["contact radius"] > 0).all()
     with pytest.raises(ValueError, match="problem='ex3-printed' .* has no obstacle"):
         run.main("ex3-printed", "ex3", {"s": 0.6, "a": 1.0, "b": 0.0, "F": 0.5}, [5, 6],

@@ -25,7 +25,7 @@ REASONS = {(1, "graded"): "the local slopes of our series approach the theoretic
                           "every ring count n between the series' own (n = ⌈1/h⌉), nothing "
                           "else changed: the error rises and falls from one n to the next "
                           "and lies on no single power law at these sizes, so the rates "
-                          "through other choices of four ring counts, or of h-halved "
+                          "through other windows of ring counts, or through h-halved "
                           "families, spread around the paper's and the series' rates; part "
                           "of it is the dip of u_h below χ that the averaged constraint "
                           "allows, which lowers E(u_h) by a share of the error that changes "

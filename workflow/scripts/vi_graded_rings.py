@@ -8,8 +8,8 @@ depend on which ring counts the series picks.  Each row records the discrete con
 (the elements of T_H where λ_H < 0): how many elements it has, and its area as the radius
 of a disk.  The averaged constraint of the mixed form lets u_h dip below χ between the
 multipliers' elements, which lowers E(u_h); each row also records the largest dip and the
-energy of the lift ũ_h = max(u_h, χ) at the fine nodes (0 on ∂Ω), which satisfies the
-constraint at every node: for a feasible v, E(v) − E(u) ≥ ½‖v − u‖²_a.
+energy of the lift ũ_h = max(u_h, χ) at the fine nodes (0 on ∂Ω): u_h with its dip
+removed at the nodes (between them a P1 function can still lie below a concave χ).
 """
 import time
 

@@ -19,7 +19,7 @@ import pandas as pd
 import fracfem as ff
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import DOFS, ERROR_LABELS, legend_below, plt, save
+from fracfem_workflow.plotstyle import DOFS, legend_below, plt, save
 from fracfem_workflow.report import (contact_extent, energy_error, fit_mask, masked_rate,
                                      paper_rate)
 
@@ -54,28 +54,30 @@ SHARE = "dip's share"
 
 def ring_table(rings, reference_energy, reference_error, reference_radius, series_n):
     """One row per ring count: the error √(2|E(u_h) − E_ref|) and the lifted error
-    √(2|E(ũ_h) − E_ref|), whether a rate may be fitted through it (both energies not below
-    E_ref, both errors above 3× the reference's own), the local slopes to the next smaller
-    ring count (both fitted), the dip's share of the lifted energy error, (E(ũ_h) −
-    E(u_h)) / (E(ũ_h) − E_ref), the contact set, and whether the graded series has this
-    n."""
+    √(2|E(ũ_h) − E_ref|); whether a rate may be fitted through each (`fitted`, `lifted
+    fitted`: its energy not below E_ref and its error above 3× the reference's own, as in
+    the rate table); the local slopes to the next smaller ring count (both fitted); the
+    dip's share (E(ũ_h) − E(u_h)) / (E(ũ_h) − E_ref), NaN where an energy lies below
+    E_ref; the contact set; and whether the graded series has this n."""
     df = rings.sort_values("n").reset_index(drop=True)
     out = pd.DataFrame({"n": df.n, "dofs": df.dofs, "energy": df.energy,
                         "lifted energy": df["lifted energy"]})
-    out["error"] = energy_error(df.energy, reference_energy)
-    out[LIFTED] = energy_error(df["lifted energy"], reference_energy)
-    below = ((df.energy.to_numpy() < reference_energy)
-             | (df["lifted energy"].to_numpy() < reference_energy))
-    out["fitted"] = (~below & fit_mask(out.error, reference_error)
-                     & fit_mask(out[LIFTED], reference_error))
-    both = out.fitted.to_numpy() & np.r_[False, out.fitted.to_numpy()[:-1]]
     logn = np.log(out.dofs.to_numpy(float))
-    for col, name in (("error", "local slope"), (LIFTED, "lifted local slope")):
-        slope = np.r_[np.nan, np.diff(np.log(out[col].to_numpy(float))) / np.diff(logn)]
-        out[name] = np.where(both, slope, np.nan)
+    for energy, error, fitted, slope in (
+            ("energy", "error", "fitted", "local slope"),
+            ("lifted energy", LIFTED, "lifted fitted", "lifted local slope")):
+        out[error] = energy_error(df[energy], reference_energy)
+        keep = (df[energy].to_numpy() >= reference_energy) & fit_mask(out[error],
+                                                                      reference_error)
+        out[fitted] = keep
+        both = keep & np.r_[False, keep[:-1]]
+        local = np.r_[np.nan, np.diff(np.log(out[error].to_numpy(float))) / np.diff(logn)]
+        out[slope] = np.where(both, local, np.nan)
     out["largest dip"] = df["largest dip"]
-    out[SHARE] = ((df["lifted energy"] - df.energy)
-                  / (df["lifted energy"] - reference_energy))
+    above = ((df.energy.to_numpy() >= reference_energy)
+             & (df["lifted energy"].to_numpy() >= reference_energy))
+    out[SHARE] = np.where(above, (df["lifted energy"] - df.energy)
+                          / (df["lifted energy"] - reference_energy), np.nan)
     out["contact elements"] = df["contact elements"]
     out[RATIO] = df["contact radius"] / reference_radius
     out["in graded series"] = out.n.isin(set(series_n))
@@ -83,28 +85,38 @@ def ring_table(rings, reference_energy, reference_error, reference_radius, serie
 
 
 def window_rates(table, series_n) -> pd.DataFrame:
-    """The rates of the error and of the lifted error through the graded series' ring
-    counts, through every ring count, through every ring count from n on (each n with at
-    least four after it), and through each n, 2n, 4n, ... (h halved; each family with at
-    least two): fitted ring counts only."""
-    fitted = table[table.fitted]
-    n_all = fitted.n.to_numpy()
-    last = int(n_all.max(initial=0))
+    """The rates of the error, through its fitted ring counts (the rate table's rule), and
+    of the lifted error, through those of them where it is fitted too, among: the graded
+    series' ring counts; every ring count; every ring count from n on
+    (each n whose window holds at least four fitted by the error, n among them); each
+    family n, 2n, 4n, ... (h halved; from its smallest fitted member, at least two
+    fitted)."""
+    fitted = table.n[table.fitted].to_numpy()
+    last = int(fitted.max(initial=0))
+
+    def rate(ns, column, mask):
+        keep = table[mask].n.isin(ns).to_numpy()
+        sub = table[mask]
+        return masked_rate(sub.dofs, sub[column], keep), int(keep.sum())
 
     def row(name, ns):
-        keep = fitted.n.isin(ns).to_numpy()
-        return {"fitted through": name, "ring counts": ", ".join(map(str, n_all[keep])),
-                "points": int(keep.sum()),
-                "rate": masked_rate(fitted.dofs, fitted.error, keep),
-                "lifted rate": masked_rate(fitted.dofs, fitted[LIFTED], keep)}
+        r, points = rate(ns, "error", table.fitted)
+        lifted, lifted_points = rate(ns, LIFTED, table.fitted & table["lifted fitted"])
+        return {"fitted through": name,
+                "ring counts": ", ".join(map(str, sorted(set(fitted) & set(ns)))),
+                "points": points, "rate": r, "lifted points": lifted_points,
+                "lifted rate": lifted}
 
-    rows = [row(SERIES, set(series_n)), row("every ring count", set(n_all))]
-    rows += [row(f"every ring count from n = {k}", set(n_all[n_all >= k]))
-             for k in n_all[1:] if (n_all >= k).sum() >= 4]
-    for k in n_all:
-        if 2 * k <= last:
-            family = {int(k) * 2 ** j for j in range(int(np.log2(last / k)) + 1)}
-            rows.append(row(f"n = {k}, {2 * k}, … (h halved)", family & set(n_all)))
+    every = set(table.n)
+    rows = [row(SERIES, set(series_n)), row("every ring count", every)]
+    rows += [row(f"every ring count from n = {k}", {n for n in every if n >= k})
+             for k in fitted[1:] if (fitted >= k).sum() >= 4]
+    for k in fitted:
+        if k % 2 == 0 and k // 2 in fitted:
+            continue                      # a member of the family from k/2
+        family = {int(k) * 2 ** j for j in range(int(np.log2(last / k)) + 1)}
+        if len(family & set(fitted)) >= 2:
+            rows.append(row(f"n = {k}, {2 * k}, … (h halved)", family))
     return pd.DataFrame(rows)
 
 
@@ -143,11 +155,17 @@ def main(rings_csv, reference_json, errors_csv, reference_meshes, md, png):
             f"reference's E_ref = {e_ref:.6g}, whose own error is {u_ref:.3g}. The averaged "
             "constraint of the mixed form lets u_h dip below χ (`largest dip`: max(χ − u_h) "
             "over the fine nodes), which lowers E(u_h). `lifted error` is √(2|E(ũ_h) − "
-            "E_ref|) for ũ_h = max(u_h, χ) at the fine nodes, which meets the constraint at "
-            "every node; for a feasible v, E(v) − E(u) ≥ ½‖v − u‖²_a. `dip's share` = "
+            "E_ref|) for ũ_h = max(u_h, χ) at the fine nodes: u_h with its dip removed "
+            "at the nodes. Between them ũ_h can still lie below the concave χ (by χ's "
+            "interpolation error), so neither measure bounds the error in the energy norm "
+            "(E(v) − E(u) ≥ ½‖v − u‖²_a holds for v ≥ χ everywhere); they show how much "
+            "of the measured error the dip moves. `dip's share` = "
             "(E(ũ_h) − E(u_h)) / (E(ũ_h) − E_ref): the part of the lifted energy error "
-            "that the dip takes off. A ring count is fitted when both energies lie above "
-            "E_ref and both errors above 3× its own error (`fitted`). The contact set is "
+            "that the dip takes off (nan where an energy lies below E_ref). A rate is "
+            "fitted through the ring counts whose energy is not below E_ref and whose error "
+            "exceeds 3× the reference's (`fitted`, as in the rate table); the lifted rate "
+            "through those of them where the same holds for the lift (`lifted fitted`). "
+            "The contact set is "
             "the elements of T_H where λ_H < 0; `contact radius / reference` compares "
             "√(area/π) with the large reference run's, "
             f"{r_ref:.4f}.\n\n"
@@ -157,32 +175,43 @@ def main(rings_csv, reference_json, errors_csv, reference_meshes, md, png):
             + rates.to_markdown(index=False, floatfmt=".3f") + "\n\n"
             "Every ring count:\n\n" + table.to_markdown(index=False, floatfmt=".4g") + "\n")
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4.8))
-    fit = table[table.fitted]
-    mine = fit[fit["in graded series"]]
-    for col, marker, colour, name in (("error", "o", "C0", "error"),
-                                      (LIFTED, "s", "C1",
-                                       "lifted error ($\\tilde u_h = \\max(u_h, \\chi)$)")):
+    for col, marker, colour, mask, name in (
+            ("error", "o", "C0", table.fitted, "error"),
+            (LIFTED, "s", "C1", table.fitted & table["lifted fitted"],
+             "lifted error ($\\tilde u_h = \\max(u_h, \\chi)$ at the nodes)")):
+        fit = table[mask]
+        mine = fit[fit["in graded series"]]
         ax.loglog(fit.dofs, fit[col], marker=marker, color=colour, ms=4, lw=0.8,
                   label=f"{name}, every ring count")
-        ax.loglog(mine.dofs, mine[col], marker, mfc="none", mec=colour, ms=11, mew=1.5)
-    ax.plot([], [], "o", mfc="none", mec="0.3", ms=11, mew=1.5,
-            label=f"ring counts of the {SERIES}: rates {rates.rate.iloc[0]:.3f} (error), "
-                  f"{rates['lifted rate'].iloc[0]:.3f} (lifted)")
+        r = rates["rate" if col == "error" else "lifted rate"].iloc[0]
+        ax.loglog(mine.dofs, mine[col], marker, mfc="none", mec=colour, ms=11, mew=1.5,
+                  label=f"{col}: the {SERIES}' ring counts, rate {r:.3f}")
+    fit = table[table.fitted]
+    paper_slope = paper_rate(2, "graded", s)
+    if paper_slope is not None and len(fit):
+        x = fit.dofs.to_numpy(float)[[0, -1]]
+        y0 = float(fit.error.iloc[0]) * 1.4
+        ax.loglog(x, y0 * (x / x[0]) ** paper_slope, "k--", lw=0.8,
+                  label=f"slope of the paper's rate, {paper_slope:.3f}")
     ax.axhline(3 * u_ref, color="grey", lw=0.7, ls=":", label="3× the reference's error")
     ax.set_xlabel(DOFS)
-    ax.set_ylabel(ERROR_LABELS["elliptic"])
+    ax.set_ylabel("$\\sqrt{2\\,|E - E_{ref}|}$")
     ax.set_title(f"Example 2 ($s = {s:g}$): graded meshes, every ring count $n$"
                  f"\nrate through every $n$: {rates.rate.iloc[1]:.3f} (error), "
                  f"{rates['lifted rate'].iloc[1]:.3f} (lifted)")
     legend_below(ax)
-    bx.plot(fit.n, fit[SHARE], "o-", color="C2", ms=4, lw=0.8)
-    bx.plot(mine.n, mine[SHARE], "o", mfc="none", mec="C2", ms=11, mew=1.5)
-    bx.set_ylim(0, max(1.0, float(fit[SHARE].to_numpy().max(initial=0.0))) * 1.05)
+    share = table[table[SHARE].notna()]
+    bx.plot(share.n, share[SHARE], "o-", color="C2", ms=4, lw=0.8, label="every ring count")
+    mine = share[share["in graded series"]]
+    bx.plot(mine.n, mine[SHARE], "o", mfc="none", mec="C2", ms=11, mew=1.5,
+            label=f"the {SERIES}' ring counts")
+    bx.set_ylim(0, max(1.0, float(share[SHARE].to_numpy().max(initial=0.0))) * 1.05)
     bx.xaxis.set_major_locator(plt.MaxNLocator(integer=True))
     bx.set_xlabel("ring count $n$ of $T_H$")
     bx.set_ylabel(SHARE)
     bx.set_title("the dip's share of the lifted energy error\n"
-                 "$(E(\\tilde u_h) - E(u_h))\\,/\\,(E(\\tilde u_h) - E_{ref})$, fitted $n$")
+                 "$(E(\\tilde u_h) - E(u_h))\\,/\\,(E(\\tilde u_h) - E_{ref})$")
+    legend_below(bx)
     save(fig, png)
 
 

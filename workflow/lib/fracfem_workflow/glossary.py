@@ -242,18 +242,24 @@ GROUPS = [
         "fitted through": "the ring counts a rate is fitted through: the graded series', "
                           "every one, every one from n on, or n, 2n, 4n, … (h halved)",
         "ring counts": "the ring counts of that fit (fitted ones only)",
-        "points": "how many ring counts the fit has",
+        "points": "how many ring counts the fit of `rate` has",
         "lifted rate": "the same fit of `lifted error`",
         "lifted energy": "E(ũ_h) for ũ_h = max(u_h, χ) at the fine nodes (0 on ∂Ω), which "
                          "meets the constraint at every node",
-        "lifted error": "√(2|E(ũ_h) − E_ref|); for a feasible v, E(v) − E(u) ≥ ½‖v − u‖²_a",
-        "fitted": "both energies not below E_ref and both errors above 3× the reference's "
-                  "own error: the ring count enters the fits",
+        "lifted error": "√(2|E(ũ_h) − E_ref|): the error measure of u_h with its dip "
+                        "below χ removed at the fine nodes (not a bound: between the nodes "
+                        "ũ_h can lie below χ)",
+        "fitted": "energy not below E_ref and error above 3× the reference's own: the "
+                  "ring count enters the fits of `rate`",
+        "lifted fitted": "the same for `lifted energy` and `lifted error`; `lifted rate` "
+                         "goes through the ring counts where both this and `fitted` hold",
+        "lifted points": "how many ring counts the fit of `lifted rate` has",
         "lifted local slope": "`local slope` of `lifted error`",
         "largest dip": "max(χ − u_h) over the free fine nodes: how far the averaged "
                        "constraint lets u_h dip below χ (≤ 0: nowhere)",
         "dip's share": "(E(ũ_h) − E(u_h)) / (E(ũ_h) − E_ref): the part of the lifted energy "
-                       "error that the dip below χ takes off E(u_h)",
+                       "error that the dip below χ takes off E(u_h) (nan where an energy "
+                       "lies below E_ref)",
         "contact elements": "elements of T_H where λ_H < 0 (contact)",
         "contact radius / reference": "√(area/π) of those elements over the same of the "
                                       "large reference run's last mesh",
