@@ -1167,3 +1167,21 @@ def test_vi_graded_rings_records_the_lift_and_the_contact_set(tmp_path):
     with pytest.raises(ValueError, match=r"rings=\[6, 5\] must be"):
         run.main("ex2", "ex2", {"s": 0.5}, [6, 5], 2.0, 1e-10, {}, str(tmp_path / "x.csv"))
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_ex1_h_rates_separates_the_error_in_h_from_the_growth_of_the_dofs():
+    """A graded series with error = h exactly and N = 10 h^(-2.2): rate in h 1, p −2.2,
+    rate against DOFs −1/2.2; uniform runs are left out."""
+    extra = script("ex1_extra")
+    h = np.array([0.2, 0.1, 0.05, 0.025])
+    df = pd.DataFrame({"s": 0.5, "family": "graded", "tag": [f"h{x:g}" for x in h],
+                       "dofs": 10 * h ** -2.2, "error": h})
+    uniform = pd.DataFrame({"s": 0.5, "family": "uniform", "tag": ["L2", "L3"],
+                            "dofs": [25, 113], "error": [0.4, 0.3]})
+    got = extra.h_rates(pd.concat([df, uniform], ignore_index=True))
+    assert got.family.tolist() == ["graded"]
+    row = got.iloc[0]
+    assert row["rate in h"] == pytest.approx(1.0)
+    assert row["dofs ~ h^p"] == pytest.approx(-2.2)
+    assert row.rate == pytest.approx(-1 / 2.2)
+    assert row.h == "0.2 … 0.025" and row.runs == 4

@@ -236,6 +236,13 @@ GROUPS = [
                                               "between all its steps, not only those up "
                                               "to the cut (nan beyond its last step)",
     }),
+    ("Example 1's graded families against h (second table of `ex1-errors.md`)", False, {
+        "runs": "runs of the series",
+        "h": "the series' mesh sizes h (their tags), largest … smallest",
+        "rate in h": "least-squares slope of log `error` against log h",
+        "dofs ~ h^p": "p: least-squares slope of log `dofs` against log h (−2 when the DOFs "
+                      "quadruple as h halves)",
+    }),
     ("Example 2's graded family at every ring count (`ex2-graded-rings.md`)", False, {
         "n": "ring count of T_H = `disk_graded_rings(n)`; the graded series' "
              "`disk_graded_aniso(h)` is n = ceil(1/h)",
