@@ -18,12 +18,14 @@ REF_PARA = ("the error is the distance to the limit of the reference's family, e
             "from the distances to its runs, each with its measured uncertainty (error bars "
             "in Figures 13/15); parabolic-reference-check.md measures the extrapolation on a "
             "problem with known solution")
-REASONS = {(1, "graded"): "against its mesh size h the error falls as the theory's h¹ (`rate "
-                         "in h`, second table of `ex1-errors.md`), while the DOFs grow faster "
-                         "than h⁻² over the series (`dofs ~ h^p`), so the rate against DOFs is "
-                         "flatter than −1/2 and its local slopes approach −1/2 from above; "
-                         "the paper's rate, steeper than −1/2 (its h-rate is twice it), "
-                         "would need an error falling faster than h¹",
+REASONS = {(1, "graded"): "against its mesh size h the error falls about as the theory's h¹ "
+                         "(`rate in h`, second table of `ex1-errors.md`), while over these "
+                         "runs the DOFs grow faster than h⁻² (`dofs ~ h^p`; less so as h "
+                         "shrinks): the rate against DOFs is their ratio, flatter than −1/2 "
+                         "mostly through the DOFs, and its local slopes approach −1/2 from "
+                         "above; the paper's rate, steeper than −1/2 (it states the h-rate "
+                         "for N ~ h⁻² as twice its size), would need an error falling faster "
+                         "than h¹",
            (2, "graded"): "`ex2-graded-rings.md` solves Example 2 on the graded family at "
                           "every ring count n between the series' own (n = ⌈1/h⌉), nothing "
                           "else changed: the error rises and falls from one n to the next "
@@ -32,8 +34,8 @@ REASONS = {(1, "graded"): "against its mesh size h the error falls as the theory
                           "families, spread around the paper's and the series' rates; part "
                           "of it is the dip of u_h below χ that the averaged constraint "
                           "allows, which lowers E(u_h) by a share of the error that changes "
-                          "with n (the lift max(u_h, χ) has steadier errors, though not one "
-                          "power law either)",
+                          "with n (the lift max(u_h, χ) at the fine nodes has steadier "
+                          "errors, though not one power law either)",
            (1, "adaptive"): "`ex1-adaptive-rate.md` runs Algorithm B again from finer "
                             "start meshes, nothing else changed: after a few steps each "
                             "series has this one's error at the same DOFs, yet the rate "

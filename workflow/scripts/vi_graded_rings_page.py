@@ -25,6 +25,8 @@ from fracfem_workflow.report import (contact_extent, energy_error, fit_mask, mas
 
 SERIES = "graded series"
 RATIO = "contact radius / reference"   # against the large reference run's
+LIFTED = "lifted error"
+SHARE = "dip's share"
 
 
 def series_rings(series: pd.DataFrame, rings: pd.DataFrame) -> pd.Series:
@@ -37,7 +39,7 @@ def series_rings(series: pd.DataFrame, rings: pd.DataFrame) -> pd.Series:
     if missing:
         raise ValueError(f"the graded series' ring counts {missing} lie outside the ring "
                          f"counts run, {int(by_n.index.min())}..{int(by_n.index.max())}; "
-                         "widen graded_rings.n")
+                         "widen example2.graded_rings")
     for tag, k, dofs, energy in zip(series.tag, n, series.dofs, series.energy):
         ring = by_n.loc[k]
         if int(ring.dofs) != int(dofs) or not np.isclose(ring.energy, energy, rtol=1e-9,
@@ -46,10 +48,6 @@ def series_rings(series: pd.DataFrame, rings: pd.DataFrame) -> pd.Series:
                              f"is not the ring-count run n = {k} ({int(ring.dofs)} DOFs, "
                              f"E = {ring.energy!r}): they must be the same mesh and solver")
     return n
-
-
-LIFTED = "lifted error"
-SHARE = "dip's share"
 
 
 def ring_table(rings, reference_energy, reference_error, reference_radius, series_n):
@@ -136,7 +134,6 @@ def main(rings_csv, reference_json, errors_csv, reference_meshes, md, png):
     errors = pd.read_csv(errors_csv)
     series = errors[errors.family == "graded"]
     series_n = series_rings(series, rings)
-    problem = str(rings.problem.iloc[0])
     s = float(errors.s.iloc[0])
     table = ring_table(rings, e_ref, u_ref, r_ref, series_n)
     rates = window_rates(table, series_n)
