@@ -393,6 +393,18 @@ def test_adaptive_changes_that_cannot_be_compared_are_refused(tmp_path, changes,
     assert code != 0 and message in text
 
 
+@pytest.mark.parametrize("rings", ["[8, 15]", "[20, 3]"])
+def test_graded_rings_that_miss_the_series_are_refused(tmp_path, rings):
+    """ex2-graded-rings.md needs the graded series' ring counts (3 … 20 for graded_h 0.4 …
+    0.05) among the ring counts it runs: refused before any job runs."""
+    cfg = tmp_path / "a.yaml"
+    cfg.write_text(f"example2:\n  graded_rings: {rings}\n")
+    code, text = dry_run("--configfile", str(cfg), ok=False)
+    assert code != 0
+    assert (f"example2.graded_rings={rings} must be [first, last] ring counts, first <= "
+            "last, holding the graded series' ring counts [3, 4, 5, 8, 10, 15, 20]") in text
+
+
 def test_jobs_needing_one_operator_assemble_it_once(tmp_path):
     """Example 4's two initial values on one mesh: the second job reads the operator the
     first assembled (fracfem.opcache), with the same matrix, so the same t_assembly and
