@@ -27,6 +27,7 @@ __all__ = [
     "disk_graded_rings",
     "disk_graded_aniso",
     "graded_ring_count",
+    "triangle_areas",
     "square",
     "lshape",
     "refine_disk",
@@ -63,6 +64,12 @@ def _signed_areas(p, t):
     e1 = p[:, t[1]] - p[:, t[0]]
     e2 = p[:, t[2]] - p[:, t[0]]
     return 0.5 * (e1[0] * e2[1] - e1[1] * e2[0])
+
+
+def triangle_areas(p, t) -> np.ndarray:
+    """Areas of the triangles ``t`` (3×M node indices into the points ``p``, 2×N), of
+    either orientation."""
+    return np.abs(_signed_areas(np.asarray(p, dtype=float), np.asarray(t)))
 
 
 def _edge_lengths(p, t):

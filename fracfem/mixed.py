@@ -34,6 +34,8 @@ from typing import Callable, ClassVar
 import numpy as np
 import scipy.sparse as sp
 
+from .meshes import triangle_areas
+
 logger = logging.getLogger(__name__)
 
 __all__ = [
@@ -65,13 +67,6 @@ def _check_nested(coarse, fine) -> None:
                          "indices (as skfem's refined() does)")
 
 
-def _triangle_areas(p, t):
-    """Unsigned areas of the triangles ``t`` (either orientation)."""
-    e1 = p[:, t[1]] - p[:, t[0]]
-    e2 = p[:, t[2]] - p[:, t[0]]
-    return 0.5 * np.abs(e1[0] * e2[1] - e1[1] * e2[0])
-
-
 def _parents(coarse, fine):
     """Coarse parent of every fine element (skfem numbering: e mod n_coarse)."""
     return np.arange(fine.nelements) % coarse.nelements
@@ -88,7 +83,7 @@ def coupling_matrix(coarse, fine) -> sp.csr_matrix:
     scipy.sparse.csr_matrix, shape (fine.nvertices, coarse.nelements)
     """
     _check_nested(coarse, fine)
-    third = _triangle_areas(fine.p, fine.t) / 3.0
+    third = triangle_areas(fine.p, fine.t) / 3.0
     rows = fine.t.ravel()
     cols = np.tile(_parents(coarse, fine), 3)
     data = np.tile(third, 3)

@@ -256,6 +256,15 @@ def test_graded_ring_count_rejects_h_outside_its_range():
         graded_ring_count(0.7)
 
 
+def test_triangle_areas_of_either_orientation_sum_to_the_domain():
+    from fracfem.meshes import triangle_areas
+    m = square(3)
+    assert triangle_areas(m.p, m.t).sum() == pytest.approx(4.0)
+    flipped = m.t[[0, 2, 1]]
+    assert np.array_equal(triangle_areas(m.p, flipped), triangle_areas(m.p, m.t))
+    assert triangle_areas(m.p, m.t) == pytest.approx(np.abs(signed_areas(m)))
+
+
 # ------------------------------------------------------------ square / lshape
 
 @pytest.mark.parametrize("n", [1, 2, 7])

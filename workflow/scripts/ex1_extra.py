@@ -25,8 +25,8 @@ def h_rates(df: pd.DataFrame) -> pd.DataFrame:
         h = np.array([ff.parse_series_tag(t)[1] for t in g.tag], dtype=float)
         rows.append({"s": s, "family": fam, "runs": len(g), "h": f"{h.max():g} … {h.min():g}",
                      "rate": fit_rate(g.dofs, g.error),
-                     "rate in h": np.polyfit(np.log(h), np.log(g.error.to_numpy(float)), 1)[0],
-                     "dofs ~ h^p": np.polyfit(np.log(h), np.log(g.dofs.to_numpy(float)), 1)[0]})
+                     "rate in h": fit_rate(h, g.error),      # log-log slopes against h
+                     "dofs ~ h^p": fit_rate(h, g.dofs)})
     return pd.DataFrame(rows)
 
 

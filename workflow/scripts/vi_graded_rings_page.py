@@ -20,8 +20,8 @@ import fracfem as ff
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import DOFS, legend_below, plt, save
-from fracfem_workflow.report import (contact_extent, energy_error, fit_mask, masked_rate,
-                                     paper_rate)
+from fracfem_workflow.report import (contact_extent, energy_error, fit_mask, local_slopes,
+                                     masked_rate, paper_rate)
 
 SERIES = "graded series"
 RATIO = "contact radius / reference"   # against the large reference run's
@@ -60,7 +60,6 @@ def ring_table(rings, reference_energy, reference_error, reference_radius, serie
     df = rings.sort_values("n").reset_index(drop=True)
     out = pd.DataFrame({"n": df.n, "dofs": df.dofs, "energy": df.energy,
                         "lifted energy": df["lifted energy"]})
-    logn = np.log(out.dofs.to_numpy(float))
     for energy, error, fitted, slope in (
             ("energy", "error", "fitted", "local slope"),
             ("lifted energy", LIFTED, "lifted fitted", "lifted local slope")):
@@ -69,7 +68,7 @@ def ring_table(rings, reference_energy, reference_error, reference_radius, serie
                                                                       reference_error)
         out[fitted] = keep
         both = keep & np.r_[False, keep[:-1]]
-        local = np.r_[np.nan, np.diff(np.log(out[error].to_numpy(float))) / np.diff(logn)]
+        local = local_slopes(out.dofs, out[error], np.zeros(len(out))).to_numpy()
         out[slope] = np.where(both, local, np.nan)
     out["largest dip"] = df["largest dip"]
     above = ((df.energy.to_numpy() >= reference_energy)
@@ -93,8 +92,8 @@ def window_rates(table, series_n) -> pd.DataFrame:
     last = int(fitted.max(initial=0))
 
     def rate(ns, column, mask):
-        keep = table[mask].n.isin(ns).to_numpy()
         sub = table[mask]
+        keep = sub.n.isin(ns).to_numpy()
         return masked_rate(sub.dofs, sub[column], keep), int(keep.sum())
 
     def row(name, ns):

@@ -352,14 +352,14 @@ def contact_extent(points, triangles, lam) -> dict:
     (`contact elements`) and the radius of the disk of its area, √(area/π) (`contact
     radius`; 0 without contact)."""
     from fracfem import contact_set
-    p, t = np.asarray(points, dtype=float), np.asarray(triangles)
+    from fracfem.meshes import triangle_areas
+    t = np.asarray(triangles)
     lam = np.asarray(lam, dtype=float)
     if lam.shape != (t.shape[1],):
         raise ValueError(f"lam has shape {lam.shape}, T_H {t.shape[1]} triangles: "
                          "the contact set needs one multiplier per triangle")
     contact = contact_set(lam)
-    a, b, c = (p[:, t[k, contact]] for k in range(3))
-    area = 0.5 * np.abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).sum()
+    area = triangle_areas(points, t[:, contact]).sum()
     return {"contact elements": int(contact.sum()),
             "contact radius": float(np.sqrt(area / np.pi))}
 
