@@ -16,6 +16,7 @@ from .assembly import mesh_arrays
 from .meshes import validates
 
 __all__ = ["locate", "interpolation_matrix", "interpolate", "interpolate_at", "transfer",
+           "energy_distance",
            "pieces_on", "space_time_distance", "SpaceTimeReference", "SlabwiseReference",
            "ReferenceFamily", "extrapolated_distance"]
 
@@ -127,6 +128,21 @@ def interpolate(mesh_from, u, mesh_to) -> np.ndarray:
         raise ValueError(f"u must have one value per node of mesh_from "
                          f"({mesh_from.p.shape[1]},), got {u.shape}")
     return interpolation_matrix(mesh_from, mesh_to.p) @ u
+
+
+def energy_distance(mesh, u, reference) -> float:
+    """‖I u − u_ref‖_a: the energy-norm distance of the P1 function u on ``mesh`` to a
+    reference, ``reference`` = (Discretisation of the reference mesh, u_ref over all its
+    nodes); I u is the nodal interpolant on the reference mesh (0 outside ``mesh``), the
+    norm the reference's free-node matrix (dense or compressed).  Exact when the
+    reference mesh refines ``mesh`` (then I u = u)."""
+    disc, u_ref = reference
+    u_ref = np.asarray(u_ref, dtype=float)
+    if u_ref.shape != (disc.mesh.p.shape[1],):
+        raise ValueError(f"u_ref must have one value per node of the reference mesh "
+                         f"({disc.mesh.p.shape[1]},), got {u_ref.shape}")
+    d = (interpolate(mesh, u, disc.mesh) - u_ref)[disc.free]
+    return float(np.sqrt(max(float(d @ np.asarray(disc.A @ d, dtype=float)), 0.0)))
 
 
 def _contiguous(name, pcs):

@@ -79,6 +79,20 @@ if not _first <= _last or _series_n[0] < _first or _series_n[-1] > _last:
                      f"ring counts, first <= last, holding the graded series' ring counts "
                      f"{_series_n} (graded_h={config['example2']['graded_h']}: n = ceil(1/h))")
 
+# ex2-adaptive-rate.md: the changed series are cut at their max_dofs, the unchanged one too,
+# which runs on to reference_dofs for the reference step: beyond max_dofs, and every start
+# mesh below it (a rate needs two steps)
+_A, _C = config["vi_adaptive"], config["example2"]["adaptive_changes"]
+if _C["reference_dofs"] <= _C["max_dofs"]:
+    raise ValueError(f"config example2.adaptive_changes.reference_dofs={_C['reference_dofs']} "
+                     f"must exceed its max_dofs={_C['max_dofs']}: the reference step lies "
+                     "beyond the steps it measures")
+for _lv in sorted(set(_C["start_level"]) | {_A["start_level"]}):
+    _n = len(interior_nodes(disk_uniform(_lv)))
+    if _n >= _C["max_dofs"]:
+        raise ValueError(f"config example2.adaptive_changes.max_dofs={_C['max_dofs']} must "
+                         f"exceed the DOFs of every start mesh: disk_uniform({_lv}) has {_n}")
+
 
 def _science(cfg):
     return {k: v for k, v in cfg.items()

@@ -15,6 +15,7 @@ rule results_page:
         rules.fig05.output.png,
         rules.fig06.output.png,
         rules.ex2_graded_rings.output,
+        rules.ex2_adaptive_rate.output,
         expand(rules.fig_vi_error.output.png, zip, num=["07", "09"],
                slug=["ex2-error", "ex3-error"]),
         rules.fig08.output.png,

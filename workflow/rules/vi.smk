@@ -446,3 +446,108 @@ rule ex2_graded_rings:
         ENV
     script:
         "../scripts/vi_graded_rings_page.py"
+
+
+# Algorithm B for Example 2 again with one setting of vi_adaptive changed at a time
+# (ex2-adaptive-rate.md): {change: (case, {setting: value})}; the unchanged series runs on
+# to reference_dofs, its last step the reference of the distances
+EX2_CHANGES = {
+    "unchanged": ("as configured", {"max_dofs": EX2["adaptive_changes"]["reference_dofs"]}),
+    **{f"start{lv}": (f"start_level = {lv}",
+                      {"start_level": lv, "max_dofs": EX2["adaptive_changes"]["max_dofs"]})
+       for lv in EX2["adaptive_changes"]["start_level"]},
+    **{f"theta{fmt(th)}": (f"theta = {th:g}",
+                           {"theta": th, "max_dofs": EX2["adaptive_changes"]["max_dofs"]})
+       for th in EX2["adaptive_changes"]["theta"]},
+}
+
+
+def ex2_change(wildcards, key):
+    """A setting of the series of change wildcards.change: the change's or vi_adaptive's."""
+    return {**config["vi_adaptive"], **EX2_CHANGES[wildcards.change][1]}[key]
+
+
+rule vi_adaptive_change:
+    output:
+        table=f"{RES}/vi/{{problem}}/adaptive-changes/{{change}}.csv",
+        npz=f"{RES}/vi/{{problem}}/adaptive-changes/{{change}}.npz",
+    log:
+        f"{RES}/logs/vi/{{problem}}_adaptive_change_{{change}}.log",
+    benchmark:
+        f"{RES}/benchmarks/vi/{{problem}}_adaptive_change_{{change}}.tsv"
+    wildcard_constraints:
+        problem="ex2",
+        change="|".join(re.escape(c) for c in EX2_CHANGES),
+    params:
+        example=vi_example,
+        data=vi_data,
+        theta=lambda w: ex2_change(w, "theta"),
+        start_level=lambda w: ex2_change(w, "start_level"),
+        max_dofs=lambda w: ex2_change(w, "max_dofs"),
+        max_steps=config["vi_adaptive"]["max_steps"],
+        figure_steps=[],
+        tol=SOLVER["tol"],
+        quadrature=QUADRATURE,
+        operator=config["vi_adaptive"]["operator"],
+        family="adaptive-change",
+        every_step=True,
+    priority: PRIORITY["long"]
+    threads: JOB_THREADS
+    conda:
+        ENV
+    script:
+        "../scripts/vi_adaptive.py"
+
+
+rule vi_adaptive_distances:
+    input:
+        tables=[path(rules.vi_adaptive_change.output.table, problem="ex2", change=c)
+                for c in EX2_CHANGES],
+        npz=[path(rules.vi_adaptive_change.output.npz, problem="ex2", change=c)
+             for c in EX2_CHANGES],
+    output:
+        csv=f"{RES}/vi/ex2/adaptive-changes/distances.csv",
+    log:
+        f"{RES}/logs/vi/ex2_adaptive_distances.log",
+    benchmark:
+        f"{RES}/benchmarks/vi/ex2_adaptive_distances.tsv"
+    params:
+        example="ex2",
+        data=vi_data(Namespace(problem="ex2")),
+        quadrature=QUADRATURE,
+        operator=config["vi_adaptive"]["operator"],
+        cases=[case for case, _ in EX2_CHANGES.values()],
+    threads: JOB_THREADS
+    conda:
+        ENV
+    script:
+        "../scripts/vi_adaptive_distances.py"
+
+
+rule ex2_adaptive_rate:
+    input:
+        distances=rules.vi_adaptive_distances.output.csv,
+        errors=path(rules.vi_errors.output.csv, problem="ex2"),
+    output:
+        md=report(
+            f"{OUT}/ex2-adaptive-rate.md",
+            caption="../../report/captions/ex2-adaptive-rate.rst",
+            category="Example 2 (obstacle)",
+            subcategory="Tables",
+        ),
+        png=report(
+            f"{OUT}/extra-ex2-adaptive-rate.png",
+            caption="../../report/captions/ex2-adaptive-rate.rst",
+            category="Example 2 (obstacle)",
+            subcategory="Further figures",
+        ),
+    params:
+        max_dofs=EX2["adaptive_changes"]["max_dofs"],
+    log:
+        f"{RES}/logs/ex2_adaptive_rate.log",
+    benchmark:
+        f"{RES}/benchmarks/tables/ex2_adaptive_rate.tsv"
+    conda:
+        ENV
+    script:
+        "../scripts/ex2_adaptive_rate.py"

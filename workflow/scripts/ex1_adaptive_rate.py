@@ -15,26 +15,10 @@ import pandas as pd
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import DOFS, ERROR_LABELS, legend_below, plt, save
-from fracfem_workflow.report import fit_rate, local_slopes, paper_rate
+from fracfem_workflow.report import cut_series, fit_rate, local_slopes, paper_rate
 from fracfem_workflow.runs import mismatched_parameters, parameter_names
 
 UNCHANGED = "as configured"
-
-
-def cut(steps: pd.DataFrame, max_dofs: int, name: str) -> pd.DataFrame:
-    """The steps of a series up to its first with at least max_dofs DOFs: the series
-    Algorithm B gives when it stops there (its stopping rule).  A series that never
-    reaches max_dofs cannot be cut, nor one whose start mesh has max_dofs DOFs already
-    (one step: no rate): ValueError."""
-    reached = np.flatnonzero(steps.dofs.to_numpy() >= max_dofs)
-    if not len(reached):
-        raise ValueError(f"max_dofs={max_dofs} is beyond the series {name!r}, which ends at "
-                         f"{int(steps.dofs.iloc[-1])} DOFs; it must be at most that")
-    if reached[0] == 0:
-        raise ValueError(f"max_dofs={max_dofs} is reached by the start mesh of the series "
-                         f"{name!r} ({int(steps.dofs.iloc[0])} DOFs): no step to fit a rate "
-                         "through; it must exceed the start mesh's DOFs")
-    return steps.iloc[:reached[0] + 1]
 
 
 def change_tables(series: dict, max_dofs: int):
@@ -45,7 +29,7 @@ def change_tables(series: dict, max_dofs: int):
     DOFs)."""
     series = {name: df.sort_values("dofs").reset_index(drop=True)
               for name, df in series.items()}
-    cases = {name: cut(df, max_dofs, name) for name, df in series.items()}
+    cases = {name: cut_series(df, max_dofs, name) for name, df in series.items()}
     base = next(iter(series.values()))
     logn, loge = np.log(base.dofs.to_numpy(float)), np.log(base.error.to_numpy(float))
     rows = []

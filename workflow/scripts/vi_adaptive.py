@@ -15,10 +15,13 @@ logger = script_logger("vi_adaptive")
 
 
 def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure_steps, tol,
-         quadrature, table, npz, log=None, threads=None, operator="dense", family="adaptive"):
+         quadrature, table, npz, log=None, threads=None, operator="dense", family="adaptive",
+         every_step=False):
     """problem: the run's name; example, data: fracfem.example(example, **data);
     operator: 'dense', 'compressed' or 'auto' (dense up to 2,000 free nodes), the
-    matrix of every step and, through the estimator's default, its (−Δ)ˢu_h."""
+    matrix of every step and, through the estimator's default, its (−Δ)ˢu_h.
+    npz: the meshes of figure_steps and the last step's mesh, u_h and λ_H; every_step:
+    the meshes and u_h (u<k>) of every step instead of figure_steps'."""
     start(log, threads, operator_cache=False)   # its own meshes; it times each step
     quad = ff.QuadratureOptions(**quadrature)
     ex = ff.example(example, **data)
@@ -44,8 +47,9 @@ def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure
             "t_total": sum(rec.timings.values()),
             "t_cumulative": time.perf_counter() - t_start,
             "peak_mem_mb": peak_memory_mb()})
-        if rec.step in keep:
-            meshes[rec.step] = (rec.mesh, rec.coarse, rec.indicators["eta2_coarse"], rec.dofs)
+        if every_step or rec.step in keep:
+            meshes[rec.step] = (rec.mesh, rec.coarse, rec.indicators["eta2_coarse"], rec.dofs,
+                                rec.u)
         logger.info("adaptive step %d: %d dofs, eta %.4e, energy %.8f", rec.step, rec.dofs,
                     rec.eta, rec.energy)
         return rec.dofs >= max_dofs
@@ -55,12 +59,15 @@ def main(problem, example, data, theta, start_level, max_dofs, max_steps, figure
                                 marking="maximum", solver="pdas", f=ex.f, callback=record,
                                 solver_options={"tol": tol})
     last = recs[-1]
-    meshes[last.step] = (last.mesh, last.coarse, last.indicators["eta2_coarse"], last.dofs)
+    meshes[last.step] = (last.mesh, last.coarse, last.indicators["eta2_coarse"], last.dofs,
+                         last.u)
     arrays = {"p": last.mesh.p, "t": last.mesh.t, "pc": last.coarse.p, "tc": last.coarse.t,
               "u": last.u, "lam": last.lam, "s": ex.s, "steps": np.array(sorted(meshes))}
-    for k, (fine, coarse, eta2, dofs) in meshes.items():
+    for k, (fine, coarse, eta2, dofs, u) in meshes.items():
         arrays.update({f"p{k}": fine.p, f"t{k}": fine.t, f"pc{k}": coarse.p,
                        f"tc{k}": coarse.t, f"eta2_{k}": eta2, f"dofs{k}": dofs})
+        if every_step:
+            arrays[f"u{k}"] = u
     save_arrays(npz, **arrays)
     df = pd.DataFrame(rows).assign(**parameter_columns(
         quadrature=quad, theta=theta, marking="maximum", start_level=start_level,
@@ -77,4 +84,5 @@ if __name__ == "__main__":
          snakemake.params.tol, snakemake.params.quadrature,  # noqa: F821
          snakemake.output.table, snakemake.output.npz, snakemake.log[0],  # noqa: F821
          snakemake.threads, snakemake.params.operator,  # noqa: F821
-         snakemake.params.family)  # noqa: F821
+         snakemake.params.family,  # noqa: F821
+         snakemake.params.get("every_step", False))  # noqa: F821

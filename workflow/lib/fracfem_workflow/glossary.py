@@ -216,14 +216,16 @@ GROUPS = [
                             "safe side)",
     }),
     ("Example 1's adaptive rate (`ex1-adaptive-rate.md`)", False, {
-        "case": "Algorithm B as configured (`example1.adaptive`), or with one setting "
-                "changed (`example1.adaptive_changes`)",
+        "case": "Algorithm B as configured (`example1.adaptive`; Example 2: `vi_adaptive`), "
+                "or with one setting changed (`example1.adaptive_changes`, "
+                "`example2.adaptive_changes`)",
         ("theta", "start_level"): "the series' marking parameter θ (η(Δ) > θ η_max) and "
                                   "start mesh `disk_uniform(start_level)`",
         "step": "refinements of the start mesh so far (0: the start mesh)",
         "start dofs": "`dofs` of the start mesh",
         "Algorithm B steps": "steps of the series up to its first with at least "
-                             "`example1.adaptive_changes.max_dofs` DOFs, where every series "
+                             "`example1.adaptive_changes.max_dofs` DOFs (Example 2: "
+                             "`example2.adaptive_changes.max_dofs`), where every series "
                              "is cut",
         "last dofs": "`dofs` of the series' last step",
         "marked": "triangles the step marks for refinement (the last step's too, which the "
@@ -263,7 +265,9 @@ GROUPS = [
         "lifted points": "how many ring counts the fit of `lifted rate` has",
         "lifted local slope": "`local slope` of `lifted error`",
         "largest dip": "max(χ − u_h) over the free fine nodes: how far the averaged "
-                       "constraint lets u_h dip below χ (≤ 0: nowhere)",
+                       "constraint lets u_h dip below χ (≤ 0: nowhere; "
+                       "`ex2-adaptive-rate.md`: 0 when nowhere, and in its first table the "
+                       "largest over the series' steps)",
         "dip's share": "(E(ũ_h) − E(u_h)) / (E(ũ_h) − E_ref): the part of the lifted energy "
                        "error that the dip below χ takes off E(u_h) (nan where an energy "
                        "lies below E_ref)",
@@ -271,6 +275,27 @@ GROUPS = [
         "contact radius / reference": "√(area/π) of those elements over the same of the "
                                       "large reference run's last mesh",
         "in graded series": "whether the graded series (`example2.graded_h`) has this n",
+    }),
+    ("Example 2's adaptive rate (`ex2-adaptive-rate.md`)", False, {
+        "energy error": "√(2|E(u_h) − E_ref|), the rate table's measure of Example 2",
+        "below E_ref": "E(u_h) < E_ref: the energy error is no error there and is not fitted",
+        "distance to u_ref": "‖u_h − u_ref‖_a, the energy-norm distance to the unchanged "
+                             "series' step with at least `example2.adaptive_changes."
+                             "reference_dofs` DOFs (u_h interpolated onto its mesh): the "
+                             "norm the paper plots against its benchmark",
+        ("fitted (energy error)", "fitted (distance to u_ref)"):
+            "steps a rate is fitted through: energy error above 3× E_ref's uncertainty "
+            "and E(u_h) ≥ E_ref; distance above 3× u_ref's own error (its energy error "
+            "plus E_ref's uncertainty)",
+        ("rate (energy error)", "rate (distance to u_ref)"):
+            "least-squares slope of the measure against `dofs` through the fitted steps "
+            "of the series (nan: fewer than two)",
+        "steps below E_ref": "steps of the series whose energy lies below E_ref",
+        "distance to u_ref / energy error": "how far the two measures differ (1: not at all)",
+        "local slope (distance)": "`local slope` of `distance to u_ref`",
+        "η / distance": "`eta` over `distance to u_ref`: the efficiency index in the "
+                        "paper's measure",
+        "smallest η / distance": "the smallest `η / distance` of the series' steps",
     }),
     ("Example 5's uniform rate (`ex5-uniform-rate.md`)", False, {
         "case": "Example 5 as configured, or one change of it (`Example 5, τ/m`: its "

@@ -52,6 +52,22 @@ def local_slopes(dofs, errors, series) -> pd.Series:
     return (np.log(errors).groupby(keys).diff() / np.log(dofs).groupby(keys).diff())
 
 
+def cut_series(steps: pd.DataFrame, max_dofs: int, name: str) -> pd.DataFrame:
+    """The steps of a series up to its first with at least max_dofs DOFs: the series
+    Algorithm B gives when it stops there (its stopping rule).  A series that never
+    reaches max_dofs cannot be cut, nor one whose start mesh has max_dofs DOFs already
+    (one step: no rate): ValueError."""
+    reached = np.flatnonzero(steps.dofs.to_numpy() >= max_dofs)
+    if not len(reached):
+        raise ValueError(f"max_dofs={max_dofs} is beyond the series {name!r}, which ends at "
+                         f"{int(steps.dofs.iloc[-1])} DOFs; it must be at most that")
+    if reached[0] == 0:
+        raise ValueError(f"max_dofs={max_dofs} is reached by the start mesh of the series "
+                         f"{name!r} ({int(steps.dofs.iloc[0])} DOFs): no step to fit a rate "
+                         "through; it must exceed the start mesh's DOFs")
+    return steps.iloc[:reached[0] + 1]
+
+
 def eta_energy_time(runs: pd.DataFrame) -> pd.Series:
     """η_a of Algorithm C's passes: η with its time term (``eta2_time``, the
     indicator's h^{−2s}‖·‖²_{L²} form) replaced by the same term in the energy norm

@@ -1,0 +1,81 @@
+"""Example 2's adaptive series measured in the energy norm, as the paper measures them.
+
+The unchanged Algorithm B series (vi_adaptive's settings, run on by vi_adaptive_change to a
+step with at least `reference_dofs` fine DOFs) gives the reference u_ref: its last step.
+Every step of it, and of each changed series, is measured by its distance
+‖u_h − u_ref‖_a (fracfem.transfer.energy_distance: u_h interpolated onto the reference
+mesh, the norm of the reference's operator, assembled again here), and by its largest
+nodal dip below the obstacle, max(χ − u_h) at its fine nodes: the mixed form constrains
+only u_h's means on T_H.
+"""
+import numpy as np
+import pandas as pd
+from skfem import MeshTri
+
+import fracfem as ff
+from fracfem.transfer import energy_distance
+from fracfem_workflow.io import write_table
+from fracfem_workflow.logs import script_logger
+from fracfem_workflow.runs import start
+
+logger = script_logger("vi_adaptive_distances")
+
+def solutions(npz):
+    """The steps kept by vi_adaptive.main(every_step=True): [(step, mesh, u_h)], and the
+    last step's multiplier mesh T_H."""
+    with np.load(npz) as z:
+        return ([(int(k), MeshTri(z[f"p{k}"], z[f"t{k}"]), z[f"u{k}"]) for k in z["steps"]],
+                MeshTri(z["pc"], z["tc"]))
+
+
+def measure(series, reference, chi):
+    """Rows (case, step, distance, dip) of every step of series {case: (steps table,
+    solutions)}, against reference = (Discretisation, u_ref)."""
+    rows = []
+    for case, (table, sols) in series.items():
+        if [k for k, _, _ in sols] != list(range(len(table))):
+            raise ValueError(f"the solutions of {case!r} do not match its steps table "
+                             f"({len(sols)} solutions, {len(table)} steps)")
+        for (k, mesh, u), (_, row) in zip(sols, table.iterrows()):
+            rows.append({"case": case, "theta": row.theta, "start_level": row.start_level,
+                         "step": k, "dofs": row.dofs, "energy": row.energy, "eta": row.eta,
+                         "distance": energy_distance(mesh, u, reference),
+                         "dip": float(np.max(chi(mesh.p) - u, initial=0.0))})
+        logger.info("%s: %d steps measured", case, len(sols))
+    return pd.DataFrame(rows)
+
+
+def main(example, data, quadrature, tables, npz, out, log=None, threads=None,
+         operator="auto"):
+    """tables, npz: {case: file} of vi_adaptive_change, the unchanged series first (its
+    last step is the reference)."""
+    start(log, threads)
+    if list(tables) != list(npz) or not tables:
+        raise ValueError(f"one steps table and one solutions file per series: {list(tables)} "
+                         f"and {list(npz)}")
+    ex = ff.example(example, **data)
+    series, coarse = {}, None
+    for case in tables:
+        sols, last_coarse = solutions(npz[case])
+        series[case] = (pd.read_csv(tables[case]), sols)
+        coarse = last_coarse if coarse is None else coarse
+    unchanged = next(iter(series))
+    last, mesh, u_ref = series[unchanged][1][-1]
+    prob = ex.problem(coarse, ff.QuadratureOptions(**quadrature), operator=operator)
+    if not np.array_equal(prob.fine.p, mesh.p):
+        raise RuntimeError("the reference step's fine mesh was not rebuilt from its T_H")
+    logger.info("reference: %s step %d, %d DOFs", unchanged, last, len(prob.disc.free))
+    rows = measure(series, (prob.disc, u_ref), ex.obstacle)
+    ref = series[unchanged][0].iloc[-1]
+    rows = rows.assign(reference_step=last, reference_dofs=int(ref.dofs),
+                       reference_energy=float(ref.energy))
+    write_table(rows, out)
+
+
+if __name__ == "__main__":
+    main(snakemake.params.example, snakemake.params.data,  # noqa: F821
+         snakemake.params.quadrature,  # noqa: F821
+         dict(zip(snakemake.params.cases, snakemake.input.tables)),  # noqa: F821
+         dict(zip(snakemake.params.cases, snakemake.input.npz)),  # noqa: F821
+         snakemake.output.csv, snakemake.log[0], snakemake.threads,  # noqa: F821
+         snakemake.params.operator)  # noqa: F821
