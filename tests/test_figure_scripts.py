@@ -484,6 +484,70 @@ def _algorithm_b_steps(dofs, errors, theta=0.5, start_level=2):
                          "marking": "maximum", "operator": "auto", "quadrature_edge": 8})
 
 
+def _distance_rows(case, dofs, energies, distances, dips, theta=0.5, start_level=2,
+                   reference=(3, 6400, -1.0 + 0.05 ** 2 / 2)):
+    """Made-up rows of vi_adaptive_distances for one series."""
+    step, ref_dofs, ref_energy = reference
+    return pd.DataFrame({"case": case, "theta": theta, "start_level": start_level,
+                         "step": np.arange(len(dofs)), "dofs": dofs, "energy": energies,
+                         "eta": 0.5 * np.asarray(distances), "distance": distances,
+                         "dip": dips, "reference_step": step, "reference_dofs": ref_dofs,
+                         "reference_energy": ref_energy})
+
+
+def test_ex2_adaptive_rate_fits_each_measure_above_its_own_reference_error(tmp_path):
+    """Energy error √(2|E − E_ref|) fitted above 3× E_ref's uncertainty and not below
+    E_ref; the distance above 3× u_ref's own error (its energy error plus that
+    uncertainty), never at u_ref itself; each series cut at max_dofs."""
+    page = script("ex2_adaptive_rate")
+    e_ref, unc = -1.0, 0.002
+    # unchanged: energy error 0.4 (N/100)^(-1/2), distance the same; u_ref = step 3
+    dofs = np.array([100, 400, 1600, 6400])
+    err = 0.4 * (dofs / 100.0) ** -0.5
+    base = _distance_rows("as configured", dofs, e_ref + err ** 2 / 2,
+                          np.r_[err[:3], 0.0], [0.01, 0.0, 0.0, 0.0])
+    # a coarse start: its energies below E_ref at step 1, distances falling as N^(-1/4)
+    d = 0.6 * (np.array([25, 100, 400, 1600]) / 25.0) ** -0.25
+    coarse = _distance_rows("start_level = 1", [25, 100, 400, 1600],
+                            [e_ref + 0.05, e_ref - 0.01, e_ref + 0.01, e_ref + 0.005], d,
+                            [0.3, 0.3, 0.2, 0.01], start_level=1)
+    rows = pd.concat([base, coarse], ignore_index=True)
+    steps, r_ref = page.step_table(rows, e_ref, unc)
+    assert r_ref == pytest.approx(0.05 + unc)          # u_ref's energy error + E_ref's
+    s = steps.set_index(["case", "step"])
+    assert not s.loc[("start_level = 1", 1), "error fitted"]        # below E_ref
+    assert s.loc[("start_level = 1", 1), "below E_ref"]
+    assert not s.loc[("as configured", 3), "distance fitted"]       # u_ref itself
+    # 3 r_ref = 0.156: the unchanged distances 0.4 and 0.2 above it, 0.1 not
+    assert list(s.loc["as configured", "distance fitted"]) == [True, True, False, False]
+    summary = page.summary_table(steps, max_dofs=1000).set_index("case")
+    assert list(summary["last dofs"]) == [1600, 1600]
+    assert summary.loc["as configured", "rate (energy error)"] == pytest.approx(-0.5)
+    assert summary.loc["as configured", "rate (distance to u_ref)"] == pytest.approx(-0.5)
+    assert summary.loc["as configured", "fitted (distance to u_ref)"] == 2
+    assert summary.loc["start_level = 1", "rate (distance to u_ref)"] == pytest.approx(-0.25)
+    assert summary.loc["start_level = 1", "steps below E_ref"] == 1
+    # both fitted: the coarse start's steps 0, 2, 3 (step 1 lies below E_ref)
+    assert summary.loc["start_level = 1", "both fitted"] == 3
+    assert summary.loc["start_level = 1", "rate (distance, both fitted)"] == pytest.approx(
+        np.polyfit(np.log([25, 400, 1600]), np.log(d[[0, 2, 3]]), 1)[0])
+    assert summary.loc["as configured", "rate (energy error, both fitted)"] == pytest.approx(
+        -0.5)
+    assert summary.loc["start_level = 1", "largest dip"] == pytest.approx(0.3)
+    assert summary.loc["start_level = 1", "smallest η / distance"] == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="against 2 references"):
+        page.step_table(rows.assign(reference_energy=[-1.0] * 4 + [-0.9] * 4), e_ref, unc)
+    # the page: both tables, the unchanged series' reference step left out
+    rows.to_csv(tmp_path / "d.csv", index=False)
+    pd.DataFrame({"s": [0.5], "reference_energy": [e_ref], "reference_error": [unc]}).to_csv(
+        tmp_path / "errors.csv", index=False)
+    page.main(tmp_path / "d.csv", tmp_path / "errors.csv", 1000, tmp_path / "p.md",
+              tmp_path / "p.png")
+    text = (tmp_path / "p.md").read_text()
+    assert "-0.363" in text and "start_level = 1" in text and (tmp_path / "p.png").exists()
+    assert "| as configured   |      3 |" not in text
+
+
 def test_ex1_adaptive_rate_compares_series_cut_at_the_same_size(tmp_path):
     """Every series is cut after its first step with at least max_dofs DOFs; rate fitted
     through all steps kept; each step's error over the unchanged series' at its DOFs
@@ -1185,3 +1249,31 @@ def test_ex1_h_rates_separates_the_error_in_h_from_the_growth_of_the_dofs():
     assert row["dofs ~ h^p"] == pytest.approx(-2.2)
     assert row.rate == pytest.approx(-1 / 2.2)
     assert row.h == "0.2 … 0.025" and row.runs == 4
+
+
+def test_vi_adaptive_distances_measures_every_step_against_the_unchanged_series_last(tmp_path):
+    """Two short Algorithm B series of Example 2 (every step kept): each step's distance
+    to the unchanged series' last step, 0 at that step itself, a dip ≥ 0; a series whose
+    recorded settings are not its change's is refused before anything is measured."""
+    adaptive = script("vi_adaptive")
+    page = script("vi_adaptive_distances")
+    data = {"s": 0.5, "height": 1.0, "slope": 4.0}
+    quad = {}
+    for name, start_level, max_dofs in (("u", 2, 400), ("c", 1, 90)):
+        adaptive.main("ex2", "ex2", data, 0.5, start_level, max_dofs, 10, [], 1e-10, quad,
+                      tmp_path / f"{name}.csv", tmp_path / f"{name}.npz", operator="dense",
+                      every_step=True)
+    tables = {"as configured": tmp_path / "u.csv", "start_level = 1": tmp_path / "c.csv"}
+    npz = {"as configured": tmp_path / "u.npz", "start_level = 1": tmp_path / "c.npz"}
+    with pytest.raises(ValueError, match="'start_level = 1' was not run with start_level = 3"):
+        page.main("ex2", data, quad, tables, npz, {"start_level = 1": {"start_level": 3}},
+                  tmp_path / "d.csv", operator="dense")
+    assert not (tmp_path / "d.csv").exists()
+    page.main("ex2", data, quad, tables, npz, {"start_level = 1": {"start_level": 1}},
+              tmp_path / "d.csv", operator="dense")
+    d = pd.read_csv(tmp_path / "d.csv")
+    steps = {case: len(pd.read_csv(f)) for case, f in tables.items()}
+    assert d.groupby("case", sort=False).size().to_dict() == steps
+    ref = d[(d.case == "as configured") & (d.step == d.reference_step)]
+    assert len(ref) == 1 and ref.distance.iloc[0] < 1e-10
+    assert (d.distance.drop(ref.index) > 1e-3).all() and (d.dip >= 0).all()

@@ -302,3 +302,24 @@ def test_slabwise_reference_takes_time_edges_rounded_near_a_slab_end():
     sliver = [(0.0, 1e-4 - 4e-13, m, U[2]), (1e-4 - 4e-13, 1e-4 + 5e-13, m, U[1]),
               (1e-4 + 5e-13, 2e-4, m, U[3]), (2e-4, 1.0, m, U[2])]
     assert ref.distance(sliver) == pytest.approx(exact, rel=1e-7)
+
+
+@pytest.mark.parametrize("operator", ["dense", "compressed"])
+def test_energy_distance_of_nested_galerkin_solutions_is_their_load_difference(operator):
+    # V_c ⊂ V_f and Galerkin orthogonality: ‖u_f − u_c‖_a² = (f, u_f) − (f, u_c), up to the
+    # quadrature's difference between the coarse and the fine matrix
+    from skfem import MeshTri
+
+    from fracfem import discretise, solve_laplace
+    from fracfem.transfer import energy_distance
+
+    coarse = MeshTri.init_sqsymmetric().refined(2)
+    fine = coarse.refined(1)
+    for s in (0.25, 0.75):
+        dc, df = discretise(coarse, s), discretise(fine, s, operator=operator)
+        uc, uf = dc.extend(solve_laplace(dc)), df.extend(solve_laplace(df))
+        d = energy_distance(coarse, uc, (df, uf))
+        assert d ** 2 == pytest.approx(df.b @ uf[df.free] - dc.b @ uc[dc.free], rel=1e-4)
+        assert energy_distance(fine, uf, (df, uf)) < 1e-12 * d
+    with pytest.raises(ValueError, match="u_ref must have one value per node"):
+        energy_distance(coarse, uc, (df, uc))

@@ -517,6 +517,8 @@ rule vi_adaptive_distances:
         quadrature=QUADRATURE,
         operator=config["vi_adaptive"]["operator"],
         cases=[case for case, _ in EX2_CHANGES.values()],
+        changes={case: {k: v for k, v in change.items() if k != "max_dofs"}
+                 for case, change in EX2_CHANGES.values()},
     threads: JOB_THREADS
     conda:
         ENV

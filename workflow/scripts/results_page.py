@@ -34,8 +34,8 @@ SECTIONS = [
      ["fig03-obstacle.png", "fig04-ex2-solution-uniform.png",
       "fig05-ex2-solution-adaptive.png", "fig06-ex2-adaptive-meshes.png",
       "fig07-ex2-error.png", "fig08-ex3-solution-multiplier.png", "fig09-ex3-error.png",
-      "extra-ex2-graded-rings.png"],
-     ["vi-runs.md", "elliptic-errors.md", "ex2-graded-rings.md"]),
+      "extra-ex2-graded-rings.png", "extra-ex2-adaptive-rate.png"],
+     ["vi-runs.md", "elliptic-errors.md", "ex2-graded-rings.md", "ex2-adaptive-rate.md"]),
     ("Error against wall time, Examples 1–3",
      "Wall time of a run: mesh, assembly, factorisation, Schur complement and solver "
      "(uniform, graded); all Algorithm B steps so far (adaptive).",

@@ -16,7 +16,7 @@ import fracfem as ff
 from fracfem.transfer import energy_distance
 from fracfem_workflow.io import write_table
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.runs import start
+from fracfem_workflow.runs import mismatched_parameters, parameter_names, start
 
 logger = script_logger("vi_adaptive_distances")
 
@@ -45,22 +45,36 @@ def measure(series, reference, chi):
     return pd.DataFrame(rows)
 
 
-def main(example, data, quadrature, tables, npz, out, log=None, threads=None,
+def check_settings(tables: dict, changes: dict) -> None:
+    """Each series was run with the unchanged series' (the first) recorded settings but
+    its change ({case: {setting: value}}) and where it stops (max_dofs): ValueError."""
+    base = next(iter(tables.values())).iloc[0]
+    settings = [c for c in parameter_names(base.index) if c != "max_dofs"]
+    for case, df in tables.items():
+        expected = {key: changes.get(case, {}).get(key, base[key]) for key in settings}
+        differ = mismatched_parameters(df.iloc[0].to_dict(), expected)
+        if differ:
+            raise ValueError(f"the series {case!r} was not run with {differ[0]} = "
+                             f"{expected[differ[0]]} (the unchanged series' settings, with "
+                             "its change)")
+
+
+def main(example, data, quadrature, tables, npz, changes, out, log=None, threads=None,
          operator="auto"):
     """tables, npz: {case: file} of vi_adaptive_change, the unchanged series first (its
-    last step is the reference)."""
+    last step is the reference); changes: {case: {setting: value}} of the others."""
     start(log, threads)
     if list(tables) != list(npz) or not tables:
         raise ValueError(f"one steps table and one solutions file per series: {list(tables)} "
                          f"and {list(npz)}")
     ex = ff.example(example, **data)
-    series, coarse = {}, None
-    for case in tables:
-        sols, last_coarse = solutions(npz[case])
-        series[case] = (pd.read_csv(tables[case]), sols)
-        coarse = last_coarse if coarse is None else coarse
+    frames = {case: pd.read_csv(f) for case, f in tables.items()}
+    check_settings(frames, changes)
+    sols = {case: solutions(f) for case, f in npz.items()}
+    series = {case: (frames[case], sols[case][0]) for case in tables}
     unchanged = next(iter(series))
     last, mesh, u_ref = series[unchanged][1][-1]
+    coarse = sols[unchanged][1]
     prob = ex.problem(coarse, ff.QuadratureOptions(**quadrature), operator=operator)
     if not np.array_equal(prob.fine.p, mesh.p):
         raise RuntimeError("the reference step's fine mesh was not rebuilt from its T_H")
@@ -77,5 +91,5 @@ if __name__ == "__main__":
          snakemake.params.quadrature,  # noqa: F821
          dict(zip(snakemake.params.cases, snakemake.input.tables)),  # noqa: F821
          dict(zip(snakemake.params.cases, snakemake.input.npz)),  # noqa: F821
-         snakemake.output.csv, snakemake.log[0], snakemake.threads,  # noqa: F821
+         snakemake.params.changes, snakemake.output.csv, snakemake.log[0], snakemake.threads,  # noqa: F821
          snakemake.params.operator)  # noqa: F821

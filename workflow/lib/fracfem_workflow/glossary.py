@@ -290,6 +290,10 @@ GROUPS = [
         ("rate (energy error)", "rate (distance to u_ref)"):
             "least-squares slope of the measure against `dofs` through the fitted steps "
             "of the series (nan: fewer than two)",
+        "both fitted": "steps of the series where both measures are fitted",
+        ("rate (energy error, both fitted)", "rate (distance, both fitted)"):
+            "each measure's rate through the `both fitted` steps: the same steps, only the "
+            "measure changed",
         "steps below E_ref": "steps of the series whose energy lies below E_ref",
         "distance to u_ref / energy error": "how far the two measures differ (1: not at all)",
         "local slope (distance)": "`local slope` of `distance to u_ref`",
