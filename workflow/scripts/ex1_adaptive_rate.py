@@ -7,18 +7,16 @@ the series reach the same error at the same number of DOFs after a few steps whi
 fitted through all their steps moves with the start mesh, the fitted rate is a property of
 where the series starts, not of the adaptive meshes it reaches.
 """
-import re
-
 import numpy as np
 import pandas as pd
 
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import DOFS, ERROR_LABELS, legend_below, plt, save
+from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, UNCHANGED, change_label,
+                                        legend_below, plt, save)
 from fracfem_workflow.report import cut_series, fit_rate, local_slopes, paper_rate
 from fracfem_workflow.runs import mismatched_parameters, parameter_names
 
-UNCHANGED = "as configured"
 
 
 def change_tables(series: dict, max_dofs: int):
@@ -55,16 +53,6 @@ def change_tables(series: dict, max_dofs: int):
         "error / unchanged at the same DOFs": g["error / unchanged at the same DOFs"].iloc[-1]}
         for name, g in steps.groupby("case", sort=False)])
     return summary, steps
-
-
-def legend_name(case, steps):
-    """A case as the figure's legend names it: θ for theta, the start mesh by its name;
-    the unchanged series with its settings (steps: its rows of the steps table)."""
-    if case == UNCHANGED:
-        case = f"{UNCHANGED}: theta = {steps.theta.iloc[0]:g}, start_level = " \
-               f"{steps.start_level.iloc[0]}"
-    return re.sub(r"start_level = (\d+)", r"start mesh disk_uniform(\1)",
-                  case.replace("theta", "θ"))
 
 
 def main(series_table, change_files, changes, max_dofs, md, png):
@@ -105,7 +93,7 @@ def main(series_table, change_files, changes, max_dofs, md, png):
     for i, (name, g) in enumerate(steps.groupby("case", sort=False)):
         rate = summary.loc[summary.case == name, "rate"].iloc[0]
         ax.loglog(g.dofs, g.error, marker="^osDvP*"[i % 7], ls="-" if i == 0 else ":",
-                  color=f"C{i}", label=f"{legend_name(name, g)}: {rate:.3f}")
+                  color=f"C{i}", label=f"{change_label(name, g)}: {rate:.3f}")
     ax.set_xlabel(DOFS)
     ax.set_ylabel(ERROR_LABELS["elliptic"])
     ax.set_title(f"Example 1 ($s = {s:g}$): Algorithm B with one setting changed\n"

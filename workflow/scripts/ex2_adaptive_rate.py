@@ -13,7 +13,7 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import DOFS, legend_below, plt, save
+from fracfem_workflow.plotstyle import DOFS, change_label, legend_below, plt, save
 from fracfem_workflow.report import (cut_series, energy_error, fit_mask, local_slopes,
                                      masked_rate, paper_rate)
 
@@ -116,15 +116,17 @@ def main(distances, errors, max_dofs, md, png):
             + summary.to_markdown(index=False, floatfmt=".4g") + "\n\n"
             + table.to_markdown(index=False, floatfmt=".4g") + "\n")
     fig, axes = plt.subplots(1, 2, figsize=(10, 5), sharey=True)
-    for ax, (col, fitted, title) in zip(axes, [
-            ("distance", "distance fitted", "$\\|u_h - u_{ref}\\|_a$ (the paper's measure)"),
-            (ERROR, "error fitted", "$\\sqrt{2\\,|E(u_h) - E_{ref}|}$ (the rate table's)")]):
+    for ax, (col, fitted, title, margin, what) in zip(axes, [
+            ("distance", "distance fitted", "$\\|u_h - u_{ref}\\|_a$ (the paper's measure)",
+             r_ref, "$u_{ref}$'s own error"),
+            (ERROR, "error fitted", "$\\sqrt{2\\,|E(u_h) - E_{ref}|}$ (the rate table's)",
+             reference_error, "$E_{ref}$'s uncertainty")]):
         for i, (case, g) in enumerate(shown.groupby("case", sort=False)):
             g = g[g.dofs <= summary.loc[summary.case == case, "last dofs"].iloc[0]]
             rate = masked_rate(g.dofs, g[col], g[fitted])
             (line,) = ax.loglog(g.dofs, g[col], marker="osD^vP*"[i % 7], ms=4,
                                 ls="-" if i == 0 else ":", color=f"C{i}",
-                                label=f"{case}: {rate:.3f}")
+                                label=f"{change_label(case, g)}: {rate:.3f}")
             out = ~g[fitted].to_numpy()
             ax.loglog(g.dofs[out], g[col][out], ls="none", marker="osD^vP*"[i % 7], ms=4,
                       mfc="white", color=line.get_color())
@@ -133,6 +135,7 @@ def main(distances, errors, max_dofs, md, png):
             y0 = shown[col].max()
             ax.loglog(x, y0 * (x / x[0]) ** paper, "k--", lw=0.8,
                       label=f"slope of the paper's rate, {paper:.3f}")
+        ax.axhline(3 * margin, color="grey", lw=0.7, ls="-.", label=f"3× {what}")
         ax.set_xlabel(DOFS)
         ax.set_title(title, fontsize=10)
         legend_below(ax)

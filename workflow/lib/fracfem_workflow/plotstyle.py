@@ -5,6 +5,7 @@ font sizes), axis labels from the names below, colour bars from :func:`colorbar`
 every figure is laid out by matplotlib's constrained layout, which keeps labels of
 neighbouring panels apart.
 """
+import re
 from pathlib import Path
 
 import matplotlib
@@ -56,6 +57,20 @@ def left_out_markers(ax, line, x, y, keep, family):
                               mfc="white", color=line.get_color(),
                               zorder=line.get_zorder() + 1)
         hollow.set_gid(LEFT_OUT)
+
+
+UNCHANGED = "as configured"     # the case of an adaptive series with its configured settings
+
+
+def change_label(case, steps):
+    """An Algorithm B series (ex1-/ex2-adaptive-rate) as a legend names it: θ for theta,
+    the start mesh by its name; the unchanged series with its settings (steps: its rows,
+    with columns theta and start_level)."""
+    if case == UNCHANGED:
+        case = f"{UNCHANGED}: theta = {steps.theta.iloc[0]:g}, start_level = " \
+               f"{steps.start_level.iloc[0]}"
+    return re.sub(r"start_level = (\d+)", r"start mesh disk_uniform(\1)",
+                  case.replace("theta", "θ"))
 
 
 def legend_below(ax, ncols=1):
