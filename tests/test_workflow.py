@@ -405,6 +405,23 @@ def test_graded_rings_that_miss_the_series_are_refused(tmp_path, rings):
             "last, holding the graded series' ring counts [3, 4, 5, 8, 10, 15, 20]") in text
 
 
+@pytest.mark.parametrize("changes, message", [
+    ("{max_dofs: 15000, reference_dofs: 15000}",
+     "example2.adaptive_changes.reference_dofs=15000 must exceed its max_dofs=15000"),
+    ("{start_level: [5], max_dofs: 1000}",
+     "example2.adaptive_changes.max_dofs=1000 must exceed the DOFs of every start mesh: "
+     "disk_uniform(5) has 1985"),
+])
+def test_ex2_adaptive_changes_that_leave_nothing_to_measure_are_refused(tmp_path, changes,
+                                                                        message):
+    """ex2-adaptive-rate.md needs its reference step beyond the steps it measures, and two
+    steps in every series: refused before any job runs."""
+    cfg = tmp_path / "a.yaml"
+    cfg.write_text(f"example2:\n  adaptive_changes: {changes}\n")
+    code, text = dry_run("--configfile", str(cfg), ok=False)
+    assert code != 0 and message in text
+
+
 def test_jobs_needing_one_operator_assemble_it_once(tmp_path):
     """Example 4's two initial values on one mesh: the second job reads the operator the
     first assembled (fracfem.opcache), with the same matrix, so the same t_assembly and
