@@ -406,16 +406,16 @@ def test_graded_rings_that_miss_the_series_are_refused(tmp_path, rings):
 
 
 @pytest.mark.parametrize("changes, message", [
-    ("{max_dofs: 15000, reference_dofs: 15000}",
-     "example2.adaptive_changes.reference_dofs=15000 must exceed its max_dofs=15000"),
+    ("{max_dofs: 15000, reference_dofs: 14999}",
+     "example2.adaptive_changes.reference_dofs=14999 must be at least its max_dofs=15000"),
     ("{start_level: [5], max_dofs: 1000}",
      "example2.adaptive_changes.max_dofs=1000 must exceed the DOFs of every start mesh: "
      "disk_uniform(5) has 1985"),
 ])
 def test_ex2_adaptive_changes_that_leave_nothing_to_measure_are_refused(tmp_path, changes,
                                                                         message):
-    """ex2-adaptive-rate.md needs its reference step beyond the steps it measures, and two
-    steps in every series: refused before any job runs."""
+    """ex2-adaptive-rate.md needs its reference step at or beyond the steps it measures,
+    and two steps in every series: refused before any job runs."""
     cfg = tmp_path / "a.yaml"
     cfg.write_text(f"example2:\n  adaptive_changes: {changes}\n")
     code, text = dry_run("--configfile", str(cfg), ok=False)

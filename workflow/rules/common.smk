@@ -80,13 +80,13 @@ if not _first <= _last or _series_n[0] < _first or _series_n[-1] > _last:
                      f"{_series_n} (graded_h={config['example2']['graded_h']}: n = ceil(1/h))")
 
 # ex2-adaptive-rate.md: the changed series are cut at their max_dofs, the unchanged one too,
-# which runs on to reference_dofs for the reference step: beyond max_dofs, and every start
-# mesh below it (a rate needs two steps)
+# which runs on to reference_dofs for the reference step: at or beyond its cut, and every
+# start mesh below max_dofs (a rate needs two steps)
 _A, _C = config["vi_adaptive"], config["example2"]["adaptive_changes"]
-if _C["reference_dofs"] <= _C["max_dofs"]:
+if _C["reference_dofs"] < _C["max_dofs"]:
     raise ValueError(f"config example2.adaptive_changes.reference_dofs={_C['reference_dofs']} "
-                     f"must exceed its max_dofs={_C['max_dofs']}: the reference step lies "
-                     "beyond the steps it measures")
+                     f"must be at least its max_dofs={_C['max_dofs']}: the reference step "
+                     "lies at or beyond the steps it measures")
 for _lv in sorted(set(_C["start_level"]) | {_A["start_level"]}):
     _n = len(interior_nodes(disk_uniform(_lv)))
     if _n >= _C["max_dofs"]:

@@ -4,7 +4,7 @@ setting changed at a time (start mesh, marking parameter θ), every step measure
 The rate table measures Example 2 by the energy, √(2|E(u_h) − E_ref|).  The paper plots the
 error in the energy norm against a benchmark solution.  The two differ where u_h dips below
 χ (the mixed form constrains only u_h's means on T_H), which lowers E(u_h).  So each step is
-also measured by its distance ‖u_h − u_ref‖_a to a finer step u_ref of the unchanged series
+also measured by its distance ‖u_h − u_ref‖_a to a later step u_ref of the unchanged series
 (vi_adaptive_distances).  If the rates agree under both measures and under every change,
 neither the measure nor these settings explain the difference from the paper's rate.
 """

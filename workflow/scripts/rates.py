@@ -46,7 +46,7 @@ REASONS = {(1, "graded"): "against its mesh size h the error falls about as the 
                             "(`ex1-errors.md`; the paper-scale tier continues it)",
            (2, "adaptive"): "`ex2-adaptive-rate.md` runs Algorithm B again with one setting "
                             "changed at a time and measures every step also by its distance "
-                            "‖u_h − u_ref‖_a to a finer step of the series, the norm the "
+                            "‖u_h − u_ref‖_a to a later step of the series, the norm the "
                             "paper plots: through the same steps the two measures give "
                             "nearly the same rate, and the marking parameter θ hardly moves "
                             "it, so neither explains the difference; the start mesh does "
