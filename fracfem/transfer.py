@@ -135,7 +135,9 @@ def energy_distance(mesh, u, reference) -> float:
     reference, ``reference`` = (Discretisation of the reference mesh, u_ref over all its
     nodes); I u is the nodal interpolant on the reference mesh (0 outside ``mesh``), the
     norm the reference's free-node matrix (dense or compressed).  Exact when the
-    reference mesh refines ``mesh`` (then I u = u)."""
+    reference mesh refines ``mesh`` on the same polygon (then I u = u); the disk's
+    refinements (:func:`fracfem.refine_disk`) move new boundary nodes onto the circle,
+    where I u differs from u in the elements along the boundary."""
     disc, u_ref = reference
     u_ref = np.asarray(u_ref, dtype=float)
     if u_ref.shape != (disc.mesh.p.shape[1],):

@@ -492,7 +492,7 @@ def _distance_rows(case, dofs, energies, distances, dips, theta=0.5, start_level
                          "step": np.arange(len(dofs)), "dofs": dofs, "energy": energies,
                          "eta": 0.5 * np.asarray(distances), "distance": distances,
                          "dip": dips, "reference_step": step, "reference_dofs": ref_dofs,
-                         "reference_energy": ref_energy})
+                         "reference_step_energy": ref_energy})
 
 
 def test_ex2_adaptive_rate_fits_each_measure_above_its_own_reference_error(tmp_path):
@@ -533,17 +533,29 @@ def test_ex2_adaptive_rate_fits_each_measure_above_its_own_reference_error(tmp_p
         np.polyfit(np.log([25, 400, 1600]), np.log(d[[0, 2, 3]]), 1)[0])
     assert summary.loc["as configured", "rate (energy error, both fitted)"] == pytest.approx(
         -0.5)
+    # distance² + e(u_ref)² against the energy error²: 1 + (e(u_ref)/error)² here, where
+    # the made-up distances equal the energy errors
+    p = s[page.PYTHAGORAS]["as configured"].to_numpy()[:3]
+    np.testing.assert_allclose(p, np.sqrt(1 + (0.05 / err[:3]) ** 2))
+    # u_ref inside the unchanged series' cut (the default tier): its step is not fitted
+    inside = page.summary_table(steps[steps.case == "as configured"], max_dofs=6400)
+    inside = inside.set_index("case")
+    assert inside.loc["as configured", "last dofs"] == 6400
+    assert inside.loc["as configured", "fitted (distance to u_ref)"] == 2
+    assert inside.loc["as configured", "rate (energy error)"] == pytest.approx(-0.5)
     assert summary.loc["start_level = 1", "largest dip"] == pytest.approx(0.3)
     assert summary.loc["start_level = 1", "smallest η / distance"] == pytest.approx(0.5)
     with pytest.raises(ValueError, match="against 2 references"):
-        page.step_table(rows.assign(reference_energy=[-1.0] * 4 + [-0.9] * 4), e_ref, unc)
+        page.step_table(rows.assign(reference_step_energy=[-1.0] * 4 + [-0.9] * 4), e_ref,
+                        unc)
     # the page: both tables, the unchanged series' reference step left out
     rows.to_csv(tmp_path / "d.csv", index=False)
     pd.DataFrame({"s": [0.5], "reference_energy": [e_ref], "reference_error": [unc]}).to_csv(
         tmp_path / "errors.csv", index=False)
     page.main(tmp_path / "d.csv", tmp_path / "errors.csv", 1000, tmp_path / "p.md",
-              tmp_path / "p.png")
+              tmp_path / "p.png", series_max_dofs=1000)
     text = (tmp_path / "p.md").read_text()
+    assert "as the rate table's series" in text
     assert "-0.363" in text and "start_level = 1" in text and (tmp_path / "p.png").exists()
     assert "| as configured   |      3 |" not in text
 

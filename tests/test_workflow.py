@@ -408,9 +408,9 @@ def test_graded_rings_that_miss_the_series_are_refused(tmp_path, rings):
 @pytest.mark.parametrize("changes, message", [
     ("{max_dofs: 15000, reference_dofs: 14999}",
      "example2.adaptive_changes.reference_dofs=14999 must be at least its max_dofs=15000"),
-    ("{start_level: [5], max_dofs: 1000}",
-     "example2.adaptive_changes.max_dofs=1000 must exceed the DOFs of every start mesh: "
-     "disk_uniform(5) has 1985"),
+    ("{start_level: [5], max_dofs: 5000}",       # T_H has 1985 interior nodes, T_h 8065
+     "example2.adaptive_changes.max_dofs=5000 must exceed the DOFs of every start mesh: "
+     "T_H = disk_uniform(5) gives T_h with 8065"),
 ])
 def test_ex2_adaptive_changes_that_leave_nothing_to_measure_are_refused(tmp_path, changes,
                                                                         message):

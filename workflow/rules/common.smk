@@ -11,7 +11,7 @@ from types import SimpleNamespace as Namespace
 import yaml
 from snakemake.utils import validate
 
-from fracfem.meshes import disk_uniform, graded_ring_count, interior_nodes
+from fracfem.meshes import disk_uniform, graded_ring_count, interior_nodes, refine_disk
 from fracfem.problems import series_tag   # the tag format the scripts parse
 
 
@@ -88,10 +88,12 @@ if _C["reference_dofs"] < _C["max_dofs"]:
                      f"must be at least its max_dofs={_C['max_dofs']}: the reference step "
                      "lies at or beyond the steps it measures")
 for _lv in sorted(set(_C["start_level"]) | {_A["start_level"]}):
-    _n = len(interior_nodes(disk_uniform(_lv)))
+    # the DOFs are those of T_h, the refinement of the start mesh T_H
+    _n = len(interior_nodes(refine_disk(disk_uniform(_lv))))
     if _n >= _C["max_dofs"]:
         raise ValueError(f"config example2.adaptive_changes.max_dofs={_C['max_dofs']} must "
-                         f"exceed the DOFs of every start mesh: disk_uniform({_lv}) has {_n}")
+                         f"exceed the DOFs of every start mesh: T_H = disk_uniform({_lv}) "
+                         f"gives T_h with {_n}")
 
 
 def _science(cfg):

@@ -545,6 +545,7 @@ rule ex2_adaptive_rate:
         ),
     params:
         max_dofs=EX2["adaptive_changes"]["max_dofs"],
+        series_max_dofs=config["vi_adaptive"]["max_dofs"],
     log:
         f"{RES}/logs/ex2_adaptive_rate.log",
     benchmark:

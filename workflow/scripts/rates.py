@@ -47,16 +47,17 @@ REASONS = {(1, "graded"): "against its mesh size h the error falls about as the 
            (2, "adaptive"): "`ex2-adaptive-rate.md` runs Algorithm B again with one setting "
                             "changed at a time and measures every step also by its distance "
                             "‖u_h − u_ref‖_a to a later step of the series, the norm the "
-                            "paper plots: through the same steps the two measures give "
-                            "nearly the same rate, and the marking parameter θ hardly moves "
-                            "it, so neither explains the difference; the start mesh does "
-                            "(the paper does not state its own): from a finer one the rate "
-                            "is steeper, from a coarser one, whose central element lets u_h "
-                            "dip far below χ for several steps while η falls, the error "
-                            "stalls and the rate is much flatter. The reference energy is "
-                            "the limit of the large adaptive series whose first steps these "
-                            "are (docs/differences.md); the rates against the other "
-                            "families' limits are in elliptic-errors.md",
+                            "paper plots: where u_h no longer dips far below χ, that "
+                            "distance with u_ref's own error added back matches the energy "
+                            "error, and the marking parameter θ hardly moves the rate, so "
+                            "neither the measure nor θ explains the difference; the start "
+                            "mesh does (the paper does not state its own): from a finer one "
+                            "the rate is steeper, from a coarser one, on which u_h dips far "
+                            "below χ for several steps while η falls, the error stalls and "
+                            "the rate is much flatter. The reference energy is the limit of "
+                            "the large adaptive series whose first steps these are "
+                            "(docs/differences.md); the rates against the other families' "
+                            "limits are in elliptic-errors.md",
            (3, "adaptive"): EXACT3,
            (2, "uniform"): REF_ELLIPTIC, (3, "uniform"): EXACT3,
            (4, "uniform"): REF_PARA,

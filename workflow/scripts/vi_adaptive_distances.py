@@ -8,6 +8,8 @@ mesh, the norm of the reference's operator, assembled again here), and by its la
 nodal dip below the obstacle, max(χ − u_h) at its fine nodes: the mixed form constrains
 only u_h's means on T_H.
 """
+import json
+
 import numpy as np
 import pandas as pd
 from skfem import MeshTri
@@ -16,7 +18,8 @@ import fracfem as ff
 from fracfem.transfer import energy_distance
 from fracfem_workflow.io import write_table
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.runs import mismatched_parameters, parameter_names, start
+from fracfem_workflow.runs import (mismatched_parameters, parameter_columns, parameter_names,
+                                   start)
 
 logger = script_logger("vi_adaptive_distances")
 
@@ -45,10 +48,17 @@ def measure(series, reference, chi):
     return pd.DataFrame(rows)
 
 
-def check_settings(tables: dict, changes: dict) -> None:
+def check_settings(tables: dict, changes: dict, own: dict) -> None:
     """Each series was run with the unchanged series' (the first) recorded settings but
-    its change ({case: {setting: value}}) and where it stops (max_dofs): ValueError."""
+    its change ({case: {setting: value}}) and where it stops (max_dofs), and the
+    unchanged series with this job's own (``own``: the recorded form of the data,
+    quadrature and operator it assembles u_ref's operator with): ValueError."""
     base = next(iter(tables.values())).iloc[0]
+    differ = mismatched_parameters(base.to_dict(), own)
+    if differ:
+        raise ValueError(f"the unchanged series was not run with {differ[0]} = "
+                         f"{own[differ[0]]}, the setting its reference's operator is "
+                         "assembled with")
     settings = [c for c in parameter_names(base.index) if c != "max_dofs"]
     for case, df in tables.items():
         expected = {key: changes.get(case, {}).get(key, base[key]) for key in settings}
@@ -69,20 +79,22 @@ def main(example, data, quadrature, tables, npz, changes, out, log=None, threads
                          f"and {list(npz)}")
     ex = ff.example(example, **data)
     frames = {case: pd.read_csv(f) for case, f in tables.items()}
-    check_settings(frames, changes)
+    quad = ff.QuadratureOptions(**quadrature)
+    check_settings(frames, changes, parameter_columns(
+        quadrature=quad, operator=operator, data=json.dumps(data, sort_keys=True)))
     sols = {case: solutions(f) for case, f in npz.items()}
     series = {case: (frames[case], sols[case][0]) for case in tables}
     unchanged = next(iter(series))
     last, mesh, u_ref = series[unchanged][1][-1]
     coarse = sols[unchanged][1]
-    prob = ex.problem(coarse, ff.QuadratureOptions(**quadrature), operator=operator)
+    prob = ex.problem(coarse, quad, operator=operator)
     if not np.array_equal(prob.fine.p, mesh.p):
         raise RuntimeError("the reference step's fine mesh was not rebuilt from its T_H")
     logger.info("reference: %s step %d, %d DOFs", unchanged, last, len(prob.disc.free))
     rows = measure(series, (prob.disc, u_ref), ex.obstacle)
     ref = series[unchanged][0].iloc[-1]
     rows = rows.assign(reference_step=last, reference_dofs=int(ref.dofs),
-                       reference_energy=float(ref.energy))
+                       reference_step_energy=float(ref.energy))
     write_table(rows, out)
 
 

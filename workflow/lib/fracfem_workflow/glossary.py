@@ -280,13 +280,13 @@ GROUPS = [
         "energy error": "√(2|E(u_h) − E_ref|), the rate table's measure of Example 2",
         "below E_ref": "E(u_h) < E_ref: the energy error is no error there and is not fitted",
         "distance to u_ref": "‖u_h − u_ref‖_a, the energy-norm distance to the unchanged "
-                             "series' step with at least `example2.adaptive_changes."
+                             "series' first step with at least `example2.adaptive_changes."
                              "reference_dofs` DOFs (u_h interpolated onto its mesh): the "
                              "norm the paper plots against its benchmark",
         ("fitted (energy error)", "fitted (distance to u_ref)"):
             "steps a rate is fitted through: energy error above 3× E_ref's uncertainty "
-            "and E(u_h) ≥ E_ref; distance above 3× u_ref's own error (its energy error "
-            "plus E_ref's uncertainty)",
+            "and E(u_h) ≥ E_ref; distance above 3× an estimate of u_ref's own error (its "
+            "energy error plus E_ref's uncertainty; not a bound)",
         ("rate (energy error)", "rate (distance to u_ref)"):
             "least-squares slope of the measure against `dofs` through the fitted steps "
             "of the series (nan: fewer than two)",
@@ -295,10 +295,20 @@ GROUPS = [
             "each measure's rate through the `both fitted` steps: the same steps, only the "
             "measure changed",
         "steps below E_ref": "steps of the series whose energy lies below E_ref",
-        "distance to u_ref / energy error": "how far the two measures differ (1: not at all)",
+        "distance to u_ref / energy error": "how far the two measures differ (1: not at all); "
+                                            "near u_ref the distance falls below the "
+                                            "error by u_ref's own",
+        "√(distance² + e(u_ref)²) / energy error": "the distance with u_ref's energy error "
+                                                   "e(u_ref) added in quadrature, over the "
+                                                   "energy error: 1 where the energy error "
+                                                   "equals the distance to the exact "
+                                                   "solution, if u_h − u_ref and u − u_ref "
+                                                   "are orthogonal (nested Galerkin "
+                                                   "solutions of a linear problem are)",
         "local slope (distance)": "`local slope` of `distance to u_ref`",
         "η / distance": "`eta` over `distance to u_ref`: the efficiency index in the "
-                        "paper's measure",
+                        "paper's measure (too large near u_ref, where the distance "
+                        "misses u_ref's own error)",
         "smallest η / distance": "the smallest `η / distance` of the series' steps",
     }),
     ("Example 5's uniform rate (`ex5-uniform-rate.md`)", False, {
