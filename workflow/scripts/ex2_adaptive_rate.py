@@ -119,7 +119,7 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
             + (", as the rate table's series" if series_max_dofs == max_dofs else
                f" (the rate table's series goes on to {series_max_dofs} DOFs; the "
                "unchanged series' steps beyond the cut, up to u_ref, are listed too)")
-            + (f" (the paper: {paper:.3f})" if paper is not None else "")
+            + (f"; the paper's rate: {paper:.3f}" if paper is not None else "")
             + "; the `both fitted` rates go through the same steps, those where both "
             "measures are fitted, so that only the measure differs"
             + ". `largest dip`: max(χ − u_h) over the fine nodes; the mixed form "
