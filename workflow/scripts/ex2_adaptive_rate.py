@@ -131,14 +131,15 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
             "Galerkin solutions of a linear problem are.\n\n"
             + summary.to_markdown(index=False, floatfmt=".4g") + "\n\n"
             + table.to_markdown(index=False, floatfmt=".4g") + "\n")
+    last = shown.case.map(summary.set_index("case")["last dofs"])
+    plotted = shown[shown.dofs <= last]                  # each series up to its cut
     fig, axes = plt.subplots(1, 2, figsize=(10, 5), sharey=True)
     for ax, (col, fitted, title, margin, what) in zip(axes, [
             ("distance", "distance fitted", "$\\|u_h - u_{ref}\\|_a$ (the paper's measure)",
              r_ref, "the estimate of $u_{ref}$'s own error"),
             (ERROR, "error fitted", "$\\sqrt{2\\,|E(u_h) - E_{ref}|}$ (the rate table's)",
              reference_error, "$E_{ref}$'s uncertainty")]):
-        for i, (case, g) in enumerate(shown.groupby("case", sort=False)):
-            g = g[g.dofs <= summary.loc[summary.case == case, "last dofs"].iloc[0]]
+        for i, (case, g) in enumerate(plotted.groupby("case", sort=False)):
             rate = masked_rate(g.dofs, g[col], g[fitted])
             (line,) = ax.loglog(g.dofs, g[col], marker="osD^vP*"[i % 7], ms=4,
                                 ls="-" if i == 0 else ":", color=f"C{i}",
@@ -147,8 +148,8 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
             ax.loglog(g.dofs[out], g[col][out], ls="none", marker="osD^vP*"[i % 7], ms=4,
                       mfc="white", color=line.get_color())
         if paper is not None:
-            x = np.array([shown.dofs.min(), shown.dofs.max()], dtype=float)
-            y0 = shown[col].max()
+            x = np.array([plotted.dofs.min(), plotted.dofs.max()], dtype=float)
+            y0 = plotted[col].max()
             ax.loglog(x, y0 * (x / x[0]) ** paper, "k--", lw=0.8,
                       label=f"slope of the paper's rate, {paper:.3f}")
         ax.axhline(3 * margin, color="grey", lw=0.7, ls="-.", label=f"3× {what}")
