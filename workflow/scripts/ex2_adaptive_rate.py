@@ -14,7 +14,8 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import DOFS, change_label, legend_below, plt, save
+from fracfem_workflow.plotstyle import (DOFS, change_label, left_out_markers, legend_below,
+                                        plt, save)
 from fracfem_workflow.report import (cut_series, energy_error, fit_mask, local_slopes,
                                      masked_rate, paper_rate)
 
@@ -82,8 +83,7 @@ def summary_table(steps: pd.DataFrame, max_dofs: int) -> pd.DataFrame:
 
 STEP_COLUMNS = ["case", "step", "dofs", ERROR, "below E_ref", DISTANCE,
                 f"{DISTANCE} / {ERROR}", PYTHAGORAS, "local slope (distance)", "largest dip",
-                "eta",
-                "η / distance"]
+                "eta", "η / distance"]
 
 
 def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
@@ -144,9 +144,7 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
             (line,) = ax.loglog(g.dofs, g[col], marker="osD^vP*"[i % 7], ms=4,
                                 ls="-" if i == 0 else ":", color=f"C{i}",
                                 label=f"{change_label(case, g)}: {rate:.3f}")
-            out = ~g[fitted].to_numpy()
-            ax.loglog(g.dofs[out], g[col][out], ls="none", marker="osD^vP*"[i % 7], ms=4,
-                      mfc="white", color=line.get_color())
+            left_out_markers(ax, line, g.dofs, g[col], g[fitted])
         if paper is not None:
             x = np.array([plotted.dofs.min(), plotted.dofs.max()], dtype=float)
             y0 = plotted[col].max()
@@ -158,7 +156,7 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
         legend_below(ax)
     axes[0].set_ylabel("error")
     fig.suptitle(f"Example 2 ($s = {s:g}$): Algorithm B with one setting changed; legend: "
-                 "rate through the fitted steps (open markers: not fitted)", fontsize=10)
+                 "rate through the fitted steps", fontsize=10)
     save(fig, png)
 
 

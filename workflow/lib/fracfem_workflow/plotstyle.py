@@ -42,19 +42,20 @@ def rate_series(ax, x, y, family, reference_error=0.0, paper=None, exclude=None)
              else f"{FAMILY_LABELS[family]}: no rate (< 2 runs above 3× reference error)")
     label += f" (paper {paper:.3f})" if paper is not None else ""
     (line,) = ax.loglog(x, y, marker=MARKERS[family], label=label)
-    left_out_markers(ax, line, x, y, keep, family)
+    left_out_markers(ax, line, x, y, keep)
     return rate
 
 
 LEFT_OUT = "left out of the fit"      # gid of the hollow markers of rate_series
 
 
-def left_out_markers(ax, line, x, y, keep, family):
-    """The runs of ``line`` outside a rate fit (``keep`` false) drawn hollow over it."""
+def left_out_markers(ax, line, x, y, keep):
+    """The runs of ``line`` outside a rate fit (``keep`` false) drawn hollow over it, with
+    the line's marker and colour."""
     x, y, keep = np.asarray(x, dtype=float), np.asarray(y, dtype=float), np.asarray(keep)
     if not keep.all():
-        (hollow,) = ax.loglog(x[~keep], y[~keep], ls="none", marker=MARKERS[family],
-                              mfc="white", color=line.get_color(),
+        (hollow,) = ax.loglog(x[~keep], y[~keep], ls="none", marker=line.get_marker(),
+                              ms=line.get_markersize(), mfc="white", color=line.get_color(),
                               zorder=line.get_zorder() + 1)
         hollow.set_gid(LEFT_OUT)
 
@@ -120,8 +121,7 @@ def para_error_panel(ax, df, x="spacetime_dofs"):
                         paper_rate(ex, fam, g.s.iloc[0], g.variant.fillna("").iloc[0]))
         else:
             (line,) = ax.loglog(g[x], g.error, marker=MARKERS[fam], label=FAMILY_LABELS[fam])
-            left_out_markers(ax, line, g[x], g.error, fit_mask(g.error, g.reference_error),
-                             fam)
+            left_out_markers(ax, line, g[x], g.error, fit_mask(g.error, g.reference_error))
         if per_run and g.error_uncertainty.notna().any():
             ax.errorbar(g[x], g.error, yerr=g.error_uncertainty.fillna(0.0), fmt="none",
                         ecolor="0.3", elinewidth=0.8, capsize=2, zorder=1,
