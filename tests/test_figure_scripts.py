@@ -518,6 +518,7 @@ def test_ex2_adaptive_rate_fits_each_measure_above_its_own_reference_error(tmp_p
     assert not s.loc[("start_level = 1", 1), "error fitted"]        # below E_ref
     assert s.loc[("start_level = 1", 1), "below E_ref"]
     assert not s.loc[("as configured", 3), "distance fitted"]       # u_ref itself
+    assert list(steps.u_ref) == [False, False, False, True] + [False] * 4
     # 3 r_ref = 0.156: the unchanged distances 0.4 and 0.2 above it, 0.1 not
     assert list(s.loc["as configured", "distance fitted"]) == [True, True, False, False]
     summary = page.summary_table(steps, max_dofs=1000).set_index("case")

@@ -48,6 +48,7 @@ def step_table(rows: pd.DataFrame, reference_energy: float, reference_error: flo
     df["below E_ref"] = df.energy < reference_energy
     df["error fitted"] = fit_mask(df[ERROR], reference_error) & ~df["below E_ref"]
     own = (df.case == df.case.iloc[0]) & (df.step == df.reference_step)
+    df["u_ref"] = own                        # u_ref itself, measured against itself
     df["distance fitted"] = fit_mask(df.distance, r_ref) & ~own
     df[f"{DISTANCE} / {ERROR}"] = df.distance / df[ERROR]
     df["η / distance"] = df.eta / df.distance
@@ -100,7 +101,7 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
     s = float(err.s.iloc[0])
     paper = paper_rate(2, "adaptive", s)
     ref = rows.iloc[0]
-    shown = steps[~((steps.case == ref.case) & (steps.step == ref.reference_step))]
+    shown = steps[~steps.u_ref]
     table = shown.rename(columns={"distance": DISTANCE})[STEP_COLUMNS]
     with atomic_path(md) as tmp:
         tmp.write_text(
