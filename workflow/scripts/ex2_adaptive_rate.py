@@ -132,14 +132,16 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
             "Galerkin solutions of a linear problem are.\n\n"
             + summary.to_markdown(index=False, floatfmt=".4g") + "\n\n"
             + table.to_markdown(index=False, floatfmt=".4g") + "\n")
-    last = shown.case.map(summary.set_index("case")["last dofs"])
-    plotted = shown[shown.dofs <= last]                  # each series up to its cut
+    last = steps.case.map(summary.set_index("case")["last dofs"])
+    cut = steps[steps.dofs <= last]                      # each series up to its cut
     fig, axes = plt.subplots(1, 2, figsize=(10, 5), sharey=True)
     for ax, (col, fitted, title, margin, what) in zip(axes, [
             ("distance", "distance fitted", "$\\|u_h - u_{ref}\\|_a$ (the paper's measure)",
              r_ref, "the estimate of $u_{ref}$'s own error"),
             (ERROR, "error fitted", "$\\sqrt{2\\,|E(u_h) - E_{ref}|}$ (the rate table's)",
              reference_error, "$E_{ref}$'s uncertainty")]):
+        # u_ref's distance to itself is 0; its energy error is a step of the series
+        plotted = cut[~cut.u_ref] if col == "distance" else cut
         for i, (case, g) in enumerate(plotted.groupby("case", sort=False)):
             rate = masked_rate(g.dofs, g[col], g[fitted])
             (line,) = ax.loglog(g.dofs, g[col], marker="osD^vP*"[i % 7], ms=4,
