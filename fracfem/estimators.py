@@ -83,7 +83,7 @@ import numpy as np
 from .assembly import mesh_arrays
 from .compressed import DEFAULT_TOL
 from .exact import check_s
-from .meshes import validates
+from .meshes import triangle_areas, validates
 from .pointwise import (PointwiseOptions, check_method, fractional_laplacian_qp,
                         quadrature_points)
 from .quadrature import triangle_rule
@@ -113,11 +113,6 @@ def parents(coarse, fine) -> np.ndarray:
         raise ValueError(f"fine must be the uniform refinement of coarse: "
                          f"{n_h} fine elements != 4 × {n_H} coarse elements")
     return np.arange(n_h) % n_H
-
-
-def _areas(p, t):
-    e1, e2 = p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]
-    return 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
 
 
 def patch_diameters(mesh) -> np.ndarray:
@@ -161,7 +156,7 @@ def abs_integrals(mesh, u) -> tuple[np.ndarray, np.ndarray]:
     if u.shape != (len(p),):
         raise ValueError(f"u must have one value per mesh node, shape ({len(p)},), "
                          f"got {u.shape}")
-    area = _areas(p, t)
+    area = triangle_areas(p.T, t.T)
     v = np.sort(u[t], axis=1)
     v1, v2, v3 = v[:, 0], v[:, 1], v[:, 2]
     integral = area * (v1 + v2 + v3) / 3.0
@@ -417,7 +412,7 @@ def contact_terms(prob, u, lam) -> dict:
                     for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
         Pf, Tf = mesh_arrays(fine)
         plus = H[par] ** (2 * prob.disc.s) * np.maximum(np.abs(lj) - Fj, 0.0) ** 2 \
-            * _areas(Pf, Tf)
+            * triangle_areas(Pf.T, Tf.T)
         fine_term = minus + absterm + plus
         return dict(kind="friction", coarse=np.bincount(par, fine_term, minlength=n_H),
                     fine=fine_term, minus=minus, abs=absterm, plus=plus,

@@ -495,7 +495,8 @@ def _distance_rows(case, dofs, energies, distances, dips, theta=0.5, start_level
                          "reference_step_energy": ref_energy})
 
 
-def test_ex2_adaptive_rate_fits_each_measure_above_its_own_reference_error(tmp_path):
+def test_ex2_adaptive_rate_fits_each_measure_above_its_own_reference_error(tmp_path,
+                                                                         monkeypatch):
     """Energy error √(2|E − E_ref|) fitted above 3× E_ref's uncertainty and not below
     E_ref; the distance above 3× u_ref's own error (its energy error plus that
     uncertainty), never at u_ref itself; each series cut at max_dofs."""
@@ -518,6 +519,7 @@ def test_ex2_adaptive_rate_fits_each_measure_above_its_own_reference_error(tmp_p
     assert not s.loc[("start_level = 1", 1), "error fitted"]        # below E_ref
     assert s.loc[("start_level = 1", 1), "below E_ref"]
     assert not s.loc[("as configured", 3), "distance fitted"]       # u_ref itself
+    assert list(steps.u_ref) == [False, False, False, True] + [False] * 4
     # 3 r_ref = 0.156: the unchanged distances 0.4 and 0.2 above it, 0.1 not
     assert list(s.loc["as configured", "distance fitted"]) == [True, True, False, False]
     summary = page.summary_table(steps, max_dofs=1000).set_index("case")
@@ -558,6 +560,21 @@ def test_ex2_adaptive_rate_fits_each_measure_above_its_own_reference_error(tmp_p
     assert "as the rate table's series" in text
     assert "-0.363" in text and "start_level = 1" in text and (tmp_path / "p.png").exists()
     assert "| as configured   |      3 |" not in text
+    # u_ref inside the cut: the figure's energy-error line runs through u_ref's step, as the
+    # rate table's series does, so its legend gives the page's rate; its distance line not
+    figs = []
+    monkeypatch.setattr(page, "save", lambda fig, *paths: figs.append(fig))
+    base.to_csv(tmp_path / "d2.csv", index=False)
+    page.main(tmp_path / "d2.csv", tmp_path / "errors.csv", 6400, tmp_path / "q.md",
+              tmp_path / "q.png", series_max_dofs=6400)
+    (dist_ax, err_ax) = figs[0].axes[:2]
+    summary = page.summary_table(page.step_table(base, e_ref, unc)[0], 6400).set_index("case")
+    for ax, col in [(dist_ax, "rate (distance to u_ref)"), (err_ax, "rate (energy error)")]:
+        label = next(t for t in ax.get_legend_handles_labels()[1]
+                     if t.startswith("as configured"))
+        assert label.endswith(f": {summary.loc['as configured', col]:.3f}")
+    x = {ax: ax.get_lines()[0].get_xdata() for ax in (dist_ax, err_ax)}
+    assert list(x[err_ax]) == [100, 400, 1600, 6400] and list(x[dist_ax]) == [100, 400, 1600]
 
 
 def test_ex1_adaptive_rate_compares_series_cut_at_the_same_size(tmp_path):

@@ -142,3 +142,44 @@ def test_error_legend_lies_below_the_axis_label_and_names_open_markers(height):
                         if t.get_text())
         assert legend.get_window_extent(renderer).y1 < label_box.y0 < ticks_box
         plt.close(fig)
+
+
+def test_change_label_names_the_start_mesh_by_its_triangles_and_the_unchanged_settings():
+    """disk_uniform(L) has 4^(L+1) triangles (as its mesh says); θ for theta; the unchanged
+    series carries its own settings."""
+    import pandas as pd
+    from fracfem import disk_uniform
+    from fracfem_workflow.plotstyle import UNCHANGED, change_label
+
+    steps = pd.DataFrame({"theta": [0.5], "start_level": [2]})
+    assert change_label("start_level = 3", steps) == \
+        f"start mesh uniform, {disk_uniform(3).t.shape[1]} triangles"
+    assert change_label("theta = 0.75", steps) == "θ = 0.75"
+    assert change_label(UNCHANGED, steps) == \
+        f"{UNCHANGED}: θ = 0.5, start mesh uniform, {disk_uniform(2).t.shape[1]} triangles"
+
+
+def test_slip_legend_names_only_the_kinds_of_slip_edge_some_panel_draws():
+    """Slip at λ_H = F in one panel, stick everywhere in the other: one legend entry (the
+    solid edge); slip of both signs: both, F first; no slip anywhere: no legend."""
+    from fracfem import disk_uniform
+    from fracfem_workflow.plotstyle import slip_boundaries, slip_legend
+
+    m, F = disk_uniform(2), 0.1
+    r = np.hypot(*m.p[:, m.t].mean(axis=1))
+    one_sign = np.where(r < 0.4, F, 0.3 * F)
+    both = np.where(r > 0.7, -F, one_sign)
+    stick = np.full(m.t.shape[1], 0.3 * F)
+
+    def legend(*panels):
+        fig, axes = plt.subplots(1, len(panels))
+        slip_legend(fig, [h for ax, lam in zip(axes, panels)
+                          for h in slip_boundaries(ax, m.p, m.t, lam, F)])
+        texts = [[t.get_text() for t in lg.get_texts()] for lg in fig.legends]
+        plt.close(fig)
+        return texts
+
+    assert legend(one_sign, stick) == [[r"edge of the slip set $\lambda_H = F$"]]
+    assert legend(stick, both) == [[r"edge of the slip set $\lambda_H = F$",
+                                    r"edge of the slip set $\lambda_H = -F$"]]
+    assert legend(stick, stick) == []

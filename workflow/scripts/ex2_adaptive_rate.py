@@ -48,6 +48,7 @@ def step_table(rows: pd.DataFrame, reference_energy: float, reference_error: flo
     df["below E_ref"] = df.energy < reference_energy
     df["error fitted"] = fit_mask(df[ERROR], reference_error) & ~df["below E_ref"]
     own = (df.case == df.case.iloc[0]) & (df.step == df.reference_step)
+    df["u_ref"] = own                        # u_ref itself, measured against itself
     df["distance fitted"] = fit_mask(df.distance, r_ref) & ~own
     df[f"{DISTANCE} / {ERROR}"] = df.distance / df[ERROR]
     df["η / distance"] = df.eta / df.distance
@@ -100,7 +101,7 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
     s = float(err.s.iloc[0])
     paper = paper_rate(2, "adaptive", s)
     ref = rows.iloc[0]
-    shown = steps[~((steps.case == ref.case) & (steps.step == ref.reference_step))]
+    shown = steps[~steps.u_ref]
     table = shown.rename(columns={"distance": DISTANCE})[STEP_COLUMNS]
     with atomic_path(md) as tmp:
         tmp.write_text(
@@ -131,14 +132,16 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
             "Galerkin solutions of a linear problem are.\n\n"
             + summary.to_markdown(index=False, floatfmt=".4g") + "\n\n"
             + table.to_markdown(index=False, floatfmt=".4g") + "\n")
-    last = shown.case.map(summary.set_index("case")["last dofs"])
-    plotted = shown[shown.dofs <= last]                  # each series up to its cut
+    last = steps.case.map(summary.set_index("case")["last dofs"])
+    cut = steps[steps.dofs <= last]                      # each series up to its cut
     fig, axes = plt.subplots(1, 2, figsize=(10, 5), sharey=True)
     for ax, (col, fitted, title, margin, what) in zip(axes, [
             ("distance", "distance fitted", "$\\|u_h - u_{ref}\\|_a$ (the paper's measure)",
              r_ref, "the estimate of $u_{ref}$'s own error"),
             (ERROR, "error fitted", "$\\sqrt{2\\,|E(u_h) - E_{ref}|}$ (the rate table's)",
              reference_error, "$E_{ref}$'s uncertainty")]):
+        # u_ref's distance to itself is 0; its energy error is a step of the series
+        plotted = cut[~cut.u_ref] if col == "distance" else cut
         for i, (case, g) in enumerate(plotted.groupby("case", sort=False)):
             rate = masked_rate(g.dofs, g[col], g[fitted])
             (line,) = ax.loglog(g.dofs, g[col], marker="osD^vP*"[i % 7], ms=4,

@@ -4,7 +4,8 @@ from matplotlib.colors import TwoSlopeNorm
 
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import (colorbar, map_axes, multiplier_panel, plt,
-                                        problem_title, save, slip_boundaries)
+                                        problem_title, save, slip_boundaries,
+                                        slip_legend)
 
 
 def main(npz, problem, F, png, pdf):
@@ -22,9 +23,8 @@ def main(npz, problem, F, png, pdf):
                   f"({t.shape[1]} triangles)")
     multiplier_panel(fig, ax2, d, "coolwarm", vmin=-F, vmax=F)
     ax2.set_title(rf"$\lambda_H$ ($F = {F:g}$; {d['tc'].shape[1]} elements of $T_H$)")
-    for ax in (ax1, ax2):
-        handles = slip_boundaries(ax, d["pc"], d["tc"], d["lam"], F)
-    fig.legend(handles=handles, loc="outside lower center", ncols=2, frameon=False)
+    slip_legend(fig, [h for ax in (ax1, ax2)
+                      for h in slip_boundaries(ax, d["pc"], d["tc"], d["lam"], F)])
     save(fig, png, pdf)
 
 

@@ -6,7 +6,8 @@ import pandas as pd
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.plotstyle import (colorbar, friction_states, map_axes, plt,
-                                        problem_title, save, slip_boundaries, surface)
+                                        problem_title, save, slip_boundaries, slip_legend,
+                                        surface)
 
 
 def slip_regions(pc, tc, lam, F, rtol=1e-6):
@@ -68,7 +69,7 @@ def main(npz, reference_npz, times_shown, F, tol, png, pdf, md):
     u0_max = np.abs(at[0.0][3]).max()
     n = len(times_shown)
     fig = plt.figure(figsize=(3.4 * n, 6.8))
-    lam_axes, tp = [], None
+    lam_axes, tp, handles = [], None, []
     for j, ts in enumerate(times_shown):
         time, p, t, u, pc, tc, lam = at[round(float(ts), 12)]
         ax = fig.add_subplot(2, n, j + 1, projection="3d")
@@ -91,7 +92,7 @@ def main(npz, reference_npz, times_shown, F, tol, png, pdf, md):
         if lam is not None:
             tp = ax2.tripcolor(pc[0], pc[1], tc.T, facecolors=lam, cmap="coolwarm",
                                vmin=-F, vmax=F, edgecolors="none")
-            handles = slip_boundaries(ax2, pc, tc, lam, F)
+            handles += slip_boundaries(ax2, pc, tc, lam, F)
             ax2.set_title(rf"$\lambda_H$, $t = {time:.2f}$"
                           + (": stick everywhere" if stick else ""))
             lam_axes.append(ax2)
@@ -101,7 +102,7 @@ def main(npz, reference_npz, times_shown, F, tol, png, pdf, md):
                      transform=ax2.transAxes, ha="center", va="center")
     if tp is not None:
         colorbar(fig, tp, lam_axes[-1], r"$\lambda_H$")
-        fig.legend(handles=handles, loc="outside lower center", ncols=2, frameon=False)
+        slip_legend(fig, handles)
     fig.suptitle(f"{problem_title('ex5')}, $F = {F:g}$: Algorithm C, pass {iteration} "
                  "(each time its slab's mesh)")
     save(fig, png, pdf)

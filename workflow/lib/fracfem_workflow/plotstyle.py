@@ -65,12 +65,14 @@ UNCHANGED = "as configured"     # the case of an adaptive series with its config
 
 def change_label(case, steps):
     """An Algorithm B series (ex1-/ex2-adaptive-rate) as a legend names it: θ for theta,
-    the start mesh by its name; the unchanged series with its settings (steps: its rows,
-    with columns theta and start_level)."""
+    the start mesh disk_uniform(L) as the uniform mesh it is, by its 4^(L+1) triangles;
+    the unchanged series with its settings (steps: its rows, with columns theta and
+    start_level)."""
     if case == UNCHANGED:
         case = f"{UNCHANGED}: theta = {steps.theta.iloc[0]:g}, start_level = " \
                f"{steps.start_level.iloc[0]}"
-    return re.sub(r"start_level = (\d+)", r"start mesh disk_uniform(\1)",
+    return re.sub(r"start_level = (\d+)",
+                  lambda m: f"start mesh uniform, {4 ** (int(m.group(1)) + 1)} triangles",
                   case.replace("theta", "θ"))
 
 
@@ -291,6 +293,20 @@ def slip_boundaries(ax, pc, tc, lam, F, **kw):
             seg, label=rf"edge of the slip set $\lambda_H = {name}$",
             **{"colors": "k", "linewidths": 1.0, "linestyles": style, **kw})))
     return out
+
+
+def slip_legend(fig, handles):
+    """The figure's legend of slip_boundaries' lines (handles: those of every panel): one
+    entry per kind of edge drawn in some panel, λ_H = F first; a kind no panel draws
+    (no slip set of that sign at any time shown) has no entry, and no legend is drawn if
+    neither is."""
+    kinds = {}
+    for h in handles:
+        if len(h.get_segments()):
+            kinds.setdefault(h.get_label(), h)
+    drawn = sorted(kinds.values(), key=lambda h: h.get_label().endswith("-F$"))
+    if drawn:
+        fig.legend(handles=drawn, loc="outside lower center", ncols=2, frameon=False)
 
 
 def plain_log_ticks(axis):
