@@ -141,6 +141,12 @@ def test_error_legend_lies_below_the_axis_label_and_names_open_markers(height):
         ticks_box = max(t.get_window_extent(renderer).y0 for t in ax.get_xticklabels()
                         if t.get_text())
         assert legend.get_window_extent(renderer).y1 < label_box.y0 < ticks_box
+        # the rule that leaves them out, when the figure gives it, and only on that entry
+        legend_below(ax, why="below the 3× line")
+        texts = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert [t for t in texts if "3× line" in t] == (
+            ["open markers: runs left out of the fit (below the 3× line)"] if open_entry
+            else [])
         plt.close(fig)
 
 

@@ -136,10 +136,12 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
     cut = steps[steps.dofs <= last]                      # each series up to its cut
     fig, axes = plt.subplots(1, 2, figsize=(10, 5), sharey=True)
     for ax, (col, fitted, title, margin, what) in zip(axes, [
-            ("distance", "distance fitted", "$\\|u_h - u_{ref}\\|_a$ (the paper's measure)",
-             r_ref, "the estimate of $u_{ref}$'s own error"),
-            (ERROR, "error fitted", "$\\sqrt{2\\,|E(u_h) - E_{ref}|}$ (the rate table's)",
-             reference_error, "$E_{ref}$'s uncertainty")]):
+            ("distance", "distance fitted",
+             "$\\|u_h - u_{\\mathrm{ref}}\\|_a$ (the paper's measure)",
+             r_ref, "the estimate of $u_{\\mathrm{ref}}$'s own error"),
+            (ERROR, "error fitted",
+             "$\\sqrt{2\\,|E(u_h) - E_{\\mathrm{ref}}|}$ (the rate table's)",
+             reference_error, "$E_{\\mathrm{ref}}$'s uncertainty")]):
         # u_ref's distance to itself is 0; its energy error is a step of the series
         plotted = cut[~cut.u_ref] if col == "distance" else cut
         for i, (case, g) in enumerate(plotted.groupby("case", sort=False)):
@@ -156,7 +158,8 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
         ax.axhline(3 * margin, color="grey", lw=0.7, ls="-.", label=f"3× {what}")
         ax.set_xlabel(DOFS)
         ax.set_title(title, fontsize=10)
-        legend_below(ax)
+        legend_below(ax, why="below the 3× line" + (
+            ", or $E(u_h) < E_{\\mathrm{ref}}$" if col == ERROR else ""))
     axes[0].set_ylabel("error")
     fig.suptitle(f"Example 2 ($s = {s:g}$): Algorithm B with one setting changed; legend: "
                  "rate through the fitted steps", fontsize=10)

@@ -25,7 +25,7 @@ def panel(ax, df):
     ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$\n"
                  f"reference energy {ref}")        # two lines: no wider than the axes
     ax.set_xlabel(DOFS)
-    legend_below(ax)
+    legend_below(ax, why=r"below the 3× line, or $E(u_h) < E_{\mathrm{ref}}$")
 
 
 def main(csvs, png, pdf):

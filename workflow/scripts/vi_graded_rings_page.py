@@ -191,7 +191,7 @@ def main(rings_csv, reference_json, errors_csv, reference_meshes, md, png):
                   label=f"slope of the paper's rate, {paper_slope:.3f}")
     ax.axhline(3 * u_ref, color="grey", lw=0.7, ls=":", label="3× the reference's error")
     ax.set_xlabel(DOFS)
-    ax.set_ylabel("$\\sqrt{2\\,|E - E_{ref}|}$")
+    ax.set_ylabel("$\\sqrt{2\\,|E - E_{\\mathrm{ref}}|}$")
     ax.set_title(f"Example 2 ($s = {s:g}$): graded meshes, every ring count $n$"
                  f"\nrate through every $n$: {rates.rate.iloc[1]:.3f} (error), "
                  f"{rates['lifted rate'].iloc[1]:.3f} (lifted)")
@@ -206,7 +206,7 @@ def main(rings_csv, reference_json, errors_csv, reference_meshes, md, png):
     bx.set_xlabel("ring count $n$ of $T_H$")
     bx.set_ylabel(SHARE)
     bx.set_title("the dip's share of the lifted energy error\n"
-                 "$(E(\\tilde u_h) - E(u_h))\\,/\\,(E(\\tilde u_h) - E_{ref})$")
+                 "$(E(\\tilde u_h) - E(u_h))\\,/\\,(E(\\tilde u_h) - E_{\\mathrm{ref}})$")
     legend_below(bx)
     save(fig, png)
 

@@ -76,17 +76,18 @@ def change_label(case, steps):
                   case.replace("theta", "θ"))
 
 
-def legend_below(ax, ncols=1):
+def legend_below(ax, ncols=1, why=None):
     """The legend of an error plot under its axes (inside them it covers the finest runs),
     one entry per line (in ``ncols`` columns) and one for the hollow markers of runs left
-    out of a fit if there are any: the same place, size and distance from the axis label
-    in every error figure (the pad is in font sizes, not a fraction of the axes' height)."""
+    out of a fit if there are any, with ``why`` (the rule that leaves them out) if given:
+    the same place, size and distance from the axis label in every error figure (the pad
+    is in font sizes, not a fraction of the axes' height)."""
     from matplotlib.lines import Line2D
 
     handles, labels = ax.get_legend_handles_labels()
     if any(ln.get_gid() == LEFT_OUT for ln in ax.lines):
         handles.append(Line2D([], [], ls="none", marker="o", mfc="white", color="grey"))
-        labels.append("open markers: runs " + LEFT_OUT)
+        labels.append("open markers: runs " + LEFT_OUT + (f" ({why})" if why else ""))
     ax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0),
               borderaxespad=5.0, fontsize=8, frameon=False, ncols=ncols)
 
