@@ -496,7 +496,8 @@ def _distance_rows(case, dofs, energies, distances, dips, theta=0.5, start_level
 
 
 def test_ex2_adaptive_rate_fits_each_measure_above_its_own_reference_error(tmp_path,
-                                                                         monkeypatch):
+                                                                         monkeypatch,
+                                                                         captured):
     """Energy error √(2|E − E_ref|) fitted above 3× E_ref's uncertainty and not below
     E_ref; the distance above 3× u_ref's own error (its energy error plus that
     uncertainty), never at u_ref itself; each series cut at max_dofs."""
@@ -562,8 +563,8 @@ def test_ex2_adaptive_rate_fits_each_measure_above_its_own_reference_error(tmp_p
     assert "| as configured   |      3 |" not in text
     # u_ref inside the cut: the figure's energy-error line runs through u_ref's step, as the
     # rate table's series does, so its legend gives the page's rate; its distance line not
-    figs = []
-    monkeypatch.setattr(page, "save", lambda fig, *paths: figs.append(fig))
+    figs, keep = captured
+    monkeypatch.setattr(page, "save", keep)
     base.to_csv(tmp_path / "d2.csv", index=False)
     page.main(tmp_path / "d2.csv", tmp_path / "errors.csv", 6400, tmp_path / "q.md",
               tmp_path / "q.png", series_max_dofs=6400)
