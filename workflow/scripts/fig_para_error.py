@@ -11,7 +11,9 @@ def main(csvs, png, pdf):
     for ax, csv in zip(axes[0], csvs):
         df = pd.read_csv(csv)
         para_error_panel(ax, df)
-        ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$")
+        # two lines, as Figures 7 and 9: what the y label's "(extrapolated)" means
+        ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$\n"
+                     "distance to the limit of graded reference runs, extrapolated")
         ax.set_xlabel(SPACETIME_DOFS)
         legend_below(ax)
     axes[0][0].set_ylabel(ERROR_LABELS["parabolic"])
