@@ -151,23 +151,23 @@ def test_error_legend_lies_below_the_axis_label_and_names_open_markers(height):
 
 
 def test_change_label_names_the_start_mesh_by_its_triangles_and_the_unchanged_settings():
-    """disk_uniform(L) has 4^(L+1) triangles (as its mesh says); θ for theta; the unchanged
-    series carries its own settings."""
+    """disk_uniform(L) has 4^(L+1) triangles (4 refined L times); θ for theta; the
+    unchanged series carries its own settings."""
     import pandas as pd
-    from fracfem import disk_uniform
     from fracfem_workflow.plotstyle import UNCHANGED, change_label
 
     steps = pd.DataFrame({"theta": [0.5], "start_level": [2]})
-    assert change_label("start_level = 3", steps) == \
-        f"start mesh uniform, {disk_uniform(3).t.shape[1]} triangles"
+    assert change_label("start_level = 3", steps) == "start mesh uniform, 256 triangles"
+    assert change_label("start_level = 1", steps) == "start mesh uniform, 16 triangles"
     assert change_label("theta = 0.75", steps) == "θ = 0.75"
     assert change_label(UNCHANGED, steps) == \
-        f"{UNCHANGED}: θ = 0.5, start mesh uniform, {disk_uniform(2).t.shape[1]} triangles"
+        f"{UNCHANGED}: θ = 0.5, start mesh uniform, 64 triangles"
 
 
 def test_slip_legend_names_only_the_kinds_of_slip_edge_some_panel_draws():
     """Slip at λ_H = F in one panel, stick everywhere in the other: one legend entry (the
-    solid edge); slip of both signs: both, F first; no slip anywhere: no legend."""
+    solid edge); slip of both signs: both, F first, also where a panel drawn before has
+    only −F; no slip anywhere: no legend."""
     from fracfem import disk_uniform
     from fracfem_workflow.plotstyle import slip_boundaries, slip_legend
 
@@ -176,6 +176,7 @@ def test_slip_legend_names_only_the_kinds_of_slip_edge_some_panel_draws():
     one_sign = np.where(r < 0.4, F, 0.3 * F)
     both = np.where(r > 0.7, -F, one_sign)
     stick = np.full(m.t.shape[1], 0.3 * F)
+    minus_only = np.where(r > 0.7, -F, 0.3 * F)
 
     def legend(*panels):
         fig, axes = plt.subplots(1, len(panels))
@@ -188,4 +189,6 @@ def test_slip_legend_names_only_the_kinds_of_slip_edge_some_panel_draws():
     assert legend(one_sign, stick) == [[r"edge of the slip set $\lambda_H = F$"]]
     assert legend(stick, both) == [[r"edge of the slip set $\lambda_H = F$",
                                     r"edge of the slip set $\lambda_H = -F$"]]
+    assert legend(minus_only, one_sign) == legend(stick, both)
+    assert legend(minus_only, stick) == [[r"edge of the slip set $\lambda_H = -F$"]]
     assert legend(stick, stick) == []

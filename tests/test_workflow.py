@@ -422,6 +422,27 @@ def test_ex2_adaptive_changes_that_leave_nothing_to_measure_are_refused(tmp_path
     assert code != 0 and message in text
 
 
+@pytest.mark.parametrize("changes, own", [
+    ("{}", True),                                    # config.yaml: reference_dofs = max_dofs
+    ("{reference_dofs: 20000}", False),              # runs on beyond vi_adaptive (paper tier)
+])
+def test_ex2_unchanged_series_is_vi_adaptives_where_it_stops_there(tmp_path, changes, own):
+    """ex2-adaptive-rate.md's unchanged series: vi_adaptive's own (with every step's u_h)
+    where it stops where vi_adaptive does, so no job solves its steps twice; its own
+    vi_adaptive_change job where it runs on."""
+    cfg = tmp_path / "a.yaml"
+    cfg.write_text(f"example2:\n  adaptive_changes: {changes}\n"
+                   f"results_dir: {tmp_path}/r\noutput_root: {tmp_path}/o\n")
+    _, text = dry_run("--configfile", str(cfg), "--", f"{tmp_path}/o/ex2-adaptive-rate.md")
+    jobs = job_counts(text)
+    changed = 3   # config.yaml: start_level [1, 3], theta [0.75]
+    assert jobs["vi_adaptive_change"] == changed + (not own)
+    assert jobs["vi_adaptive"] == 1
+    distances = text.split("rule vi_adaptive_distances:")[1].split("output:")[0]
+    assert (f"{tmp_path}/r/vi/ex2/adaptive/meshes.npz" in distances) == own
+    assert (f"{tmp_path}/r/vi/ex2/adaptive-changes/unchanged.npz" in distances) == (not own)
+
+
 def test_jobs_needing_one_operator_assemble_it_once(tmp_path):
     """Example 4's two initial values on one mesh: the second job reads the operator the
     first assembled (fracfem.opcache), with the same matrix, so the same t_assembly and

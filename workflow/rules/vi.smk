@@ -184,6 +184,8 @@ rule vi_adaptive:
         quadrature=QUADRATURE,
         operator=config["vi_adaptive"]["operator"],
         family="adaptive",
+        # the u_h of every step too where it is ex2-adaptive-rate.md's unchanged series
+        every_step=lambda w: w.problem == "ex2" and EX2_UNCHANGED_IS_ADAPTIVE,
     priority: PRIORITY["long"]
     threads: JOB_THREADS
     conda:
@@ -450,7 +452,8 @@ rule ex2_graded_rings:
 
 # Algorithm B for Example 2 again with one setting of vi_adaptive changed at a time
 # (ex2-adaptive-rate.md): {change: (case, {setting: value})}; the unchanged series runs on
-# to reference_dofs, its last step the reference of the distances
+# to reference_dofs, its last step the reference of the distances (vi_adaptive's own series
+# where reference_dofs is vi_adaptive's max_dofs: EX2_UNCHANGED_IS_ADAPTIVE)
 EX2_CHANGES = {
     "unchanged": ("as configured", {"max_dofs": EX2["adaptive_changes"]["reference_dofs"]}),
     **{f"start{lv}": (f"start_level = {lv}",
@@ -467,6 +470,22 @@ def ex2_change(wildcards, key):
     return {**config["vi_adaptive"], **EX2_CHANGES[wildcards.change][1]}[key]
 
 
+# Where the unchanged series stops where vi_adaptive does (the default tier), it is
+# vi_adaptive's own series: vi_adaptive keeps every step of Example 2 and no second job
+# solves the same steps again
+EX2_UNCHANGED_IS_ADAPTIVE = (EX2_CHANGES["unchanged"][1]["max_dofs"]
+                             == config["vi_adaptive"]["max_dofs"])
+
+
+def ex2_change_files(kind):
+    """The files of every series of ex2-adaptive-rate.md ('table' or 'npz'), the unchanged
+    one first: vi_adaptive's where EX2_UNCHANGED_IS_ADAPTIVE."""
+    return [path(getattr(rules.vi_adaptive.output, kind), problem="ex2")
+            if c == "unchanged" and EX2_UNCHANGED_IS_ADAPTIVE
+            else path(getattr(rules.vi_adaptive_change.output, kind), problem="ex2", change=c)
+            for c in EX2_CHANGES]
+
+
 rule vi_adaptive_change:
     output:
         table=f"{RES}/vi/{{problem}}/adaptive-changes/{{change}}.csv",
@@ -477,7 +496,8 @@ rule vi_adaptive_change:
         f"{RES}/benchmarks/vi/{{problem}}_adaptive_change_{{change}}.tsv"
     wildcard_constraints:
         problem="ex2",
-        change="|".join(re.escape(c) for c in EX2_CHANGES),
+        change="|".join(re.escape(c) for c in EX2_CHANGES
+                        if not (c == "unchanged" and EX2_UNCHANGED_IS_ADAPTIVE)),
     params:
         example=vi_example,
         data=vi_data,
@@ -501,10 +521,8 @@ rule vi_adaptive_change:
 
 rule vi_adaptive_distances:
     input:
-        tables=[path(rules.vi_adaptive_change.output.table, problem="ex2", change=c)
-                for c in EX2_CHANGES],
-        npz=[path(rules.vi_adaptive_change.output.npz, problem="ex2", change=c)
-             for c in EX2_CHANGES],
+        tables=ex2_change_files("table"),
+        npz=ex2_change_files("npz"),
     output:
         csv=f"{RES}/vi/ex2/adaptive-changes/distances.csv",
     log:

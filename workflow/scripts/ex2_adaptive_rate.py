@@ -14,8 +14,8 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import (DOFS, change_label, left_out_markers, legend_below,
-                                        plt, save)
+from fracfem_workflow.plotstyle import (DOFS, LEFT_OUT_WHY, LEFT_OUT_WHY_ENERGY, change_label,
+                                        left_out_markers, legend_below, plt, save)
 from fracfem_workflow.report import (cut_series, energy_error, fit_mask, local_slopes,
                                      masked_rate, paper_rate)
 
@@ -158,8 +158,7 @@ def main(distances, errors, max_dofs, md, png, series_max_dofs=None):
         ax.axhline(3 * margin, color="grey", lw=0.7, ls="-.", label=f"3× {what}")
         ax.set_xlabel(DOFS)
         ax.set_title(title, fontsize=10)
-        legend_below(ax, why="below the 3× line" + (
-            ", or $E(u_h) < E_{\\mathrm{ref}}$" if col == ERROR else ""))
+        legend_below(ax, why=LEFT_OUT_WHY_ENERGY if col == ERROR else LEFT_OUT_WHY)
     axes[0].set_ylabel("error")
     fig.suptitle(f"Example 2 ($s = {s:g}$): Algorithm B with one setting changed; legend: "
                  "rate through the fitted steps", fontsize=10)

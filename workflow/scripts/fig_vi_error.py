@@ -2,8 +2,9 @@
 import pandas as pd
 
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, legend_below, plt, problem_title,
-                                        rate_series, reference_error_lines, save)
+from fracfem_workflow.plotstyle import (DOFS, ERROR_LABELS, LEFT_OUT_WHY_ENERGY, legend_below,
+                                        plt, problem_title, rate_series, reference_error_lines,
+                                        save)
 from fracfem_workflow.report import fit_rate, paper_rate
 
 
@@ -25,7 +26,7 @@ def panel(ax, df):
     ax.set_title(f"{problem_title(df.problem.iloc[0])}, $s = {df.s.iloc[0]:g}$\n"
                  f"reference energy {ref}")        # two lines: no wider than the axes
     ax.set_xlabel(DOFS)
-    legend_below(ax, why=r"below the 3× line, or $E(u_h) < E_{\mathrm{ref}}$")
+    legend_below(ax, why=LEFT_OUT_WHY_ENERGY)
 
 
 def main(csvs, png, pdf):

@@ -1,7 +1,8 @@
 """Example 2's adaptive series measured in the energy norm, as the paper measures them.
 
-The unchanged Algorithm B series (vi_adaptive's settings, run on by vi_adaptive_change to a
-step with at least `reference_dofs` fine DOFs) gives the reference u_ref: its last step.
+The unchanged Algorithm B series (vi_adaptive's settings, to a step with at least
+`reference_dofs` fine DOFs: vi_adaptive's own series where that is where vi_adaptive stops,
+else vi_adaptive_change's) gives the reference u_ref: its last step.
 Every step of it, and of each changed series, is measured by its distance
 ‖u_h − u_ref‖_a (fracfem.transfer.energy_distance: u_h interpolated onto the reference
 mesh, the norm of the reference's operator, assembled again here), and by its largest
@@ -71,8 +72,9 @@ def check_settings(tables: dict, changes: dict, own: dict) -> None:
 
 def main(example, data, quadrature, tables, npz, changes, out, log=None, threads=None,
          operator="auto"):
-    """tables, npz: {case: file} of vi_adaptive_change, the unchanged series first (its
-    last step is the reference); changes: {case: {setting: value}} of the others."""
+    """tables, npz: {case: file} of vi_adaptive_change or vi_adaptive (every_step=True),
+    the unchanged series first (its last step is the reference); changes: {case: {setting:
+    value}} of the others."""
     start(log, threads)
     if list(tables) != list(npz) or not tables:
         raise ValueError(f"one steps table and one solutions file per series: {list(tables)} "

@@ -26,6 +26,10 @@ MARKERS = {"uniform": "o", "graded": "s", "graded-sr": "D", "adaptive": "^"}
 # how a legend names a mesh family (the tables keep the short names)
 FAMILY_LABELS = {"uniform": "uniform", "graded": "2-graded (anisotropic)",
                  "graded-sr": "2-graded, shape-regular", "adaptive": "adaptive"}
+# why a run of an error figure is left out of its fit (legend_below's ``why``): the rate
+# table's rule, and for energy errors the runs whose energy lies below the reference's
+LEFT_OUT_WHY = "below the 3× line"
+LEFT_OUT_WHY_ENERGY = LEFT_OUT_WHY + r", or $E(u_h) < E_{\mathrm{ref}}$"
 
 
 def rate_series(ax, x, y, family, reference_error=0.0, paper=None, exclude=None):
@@ -65,14 +69,17 @@ UNCHANGED = "as configured"     # the case of an adaptive series with its config
 
 def change_label(case, steps):
     """An Algorithm B series (ex1-/ex2-adaptive-rate) as a legend names it: θ for theta,
-    the start mesh disk_uniform(L) as the uniform mesh it is, by its 4^(L+1) triangles;
+    the start mesh disk_uniform(L) as the uniform mesh it is, by its number of triangles;
     the unchanged series with its settings (steps: its rows, with columns theta and
     start_level)."""
+    from fracfem.meshes import disk_uniform
+
     if case == UNCHANGED:
         case = f"{UNCHANGED}: theta = {steps.theta.iloc[0]:g}, start_level = " \
                f"{steps.start_level.iloc[0]}"
     return re.sub(r"start_level = (\d+)",
-                  lambda m: f"start mesh uniform, {4 ** (int(m.group(1)) + 1)} triangles",
+                  lambda m: "start mesh uniform, "
+                            f"{disk_uniform(int(m.group(1))).nelements} triangles",
                   case.replace("theta", "θ"))
 
 
@@ -279,6 +286,11 @@ def interface_segments(p, t, label):
     return p[:, key[:, differ]].transpose(2, 1, 0)
 
 
+# the kinds of slip edge slip_boundaries draws, by the sign of λ_H = ±F (their gid), in
+# the order slip_legend lists them
+SLIP_EDGE = {1: "slip edge +F", -1: "slip edge -F"}
+
+
 def slip_boundaries(ax, pc, tc, lam, F, **kw):
     """Draw the edges of T_H = (pc, tc) around the two slip sets, where λ_H jumps: solid
     around λ_H = F, dashed around λ_H = −F (the stick set |λ_H| < F lies between; where
@@ -292,6 +304,7 @@ def slip_boundaries(ax, pc, tc, lam, F, **kw):
         seg = interface_segments(pc, tc, (state == sign).astype(int))
         out.append(ax.add_collection(LineCollection(
             seg, label=rf"edge of the slip set $\lambda_H = {name}$",
+            gid=SLIP_EDGE[sign],
             **{"colors": "k", "linewidths": 1.0, "linestyles": style, **kw})))
     return out
 
@@ -304,8 +317,9 @@ def slip_legend(fig, handles):
     kinds = {}
     for h in handles:
         if len(h.get_segments()):
-            kinds.setdefault(h.get_label(), h)
-    drawn = sorted(kinds.values(), key=lambda h: h.get_label().endswith("-F$"))
+            kinds.setdefault(h.get_gid(), h)
+    order = list(SLIP_EDGE.values())
+    drawn = sorted(kinds.values(), key=lambda h: order.index(h.get_gid()))
     if drawn:
         fig.legend(handles=drawn, loc="outside lower center", ncols=2, frameon=False)
 
