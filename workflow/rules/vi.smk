@@ -475,14 +475,17 @@ def ex2_change(wildcards, key):
 # solves the same steps again
 EX2_UNCHANGED_IS_ADAPTIVE = (EX2_CHANGES["unchanged"][1]["max_dofs"]
                              == config["vi_adaptive"]["max_dofs"])
+# the series that vi_adaptive_change runs: all but the unchanged one where it is vi_adaptive's
+EX2_CHANGE_JOBS = [c for c in EX2_CHANGES
+                   if not (c == "unchanged" and EX2_UNCHANGED_IS_ADAPTIVE)]
 
 
 def ex2_change_files(kind):
     """The files of every series of ex2-adaptive-rate.md ('table' or 'npz'), the unchanged
-    one first: vi_adaptive's where EX2_UNCHANGED_IS_ADAPTIVE."""
-    return [path(getattr(rules.vi_adaptive.output, kind), problem="ex2")
-            if c == "unchanged" and EX2_UNCHANGED_IS_ADAPTIVE
-            else path(getattr(rules.vi_adaptive_change.output, kind), problem="ex2", change=c)
+    one first: vi_adaptive_change's, or vi_adaptive's for a series not in EX2_CHANGE_JOBS."""
+    return [path(getattr(rules.vi_adaptive_change.output, kind), problem="ex2", change=c)
+            if c in EX2_CHANGE_JOBS
+            else path(getattr(rules.vi_adaptive.output, kind), problem="ex2")
             for c in EX2_CHANGES]
 
 
@@ -496,8 +499,7 @@ rule vi_adaptive_change:
         f"{RES}/benchmarks/vi/{{problem}}_adaptive_change_{{change}}.tsv"
     wildcard_constraints:
         problem="ex2",
-        change="|".join(re.escape(c) for c in EX2_CHANGES
-                        if not (c == "unchanged" and EX2_UNCHANGED_IS_ADAPTIVE)),
+        change="|".join(re.escape(c) for c in EX2_CHANGE_JOBS),
     params:
         example=vi_example,
         data=vi_data,
