@@ -40,12 +40,14 @@ use rule para_solve as para_reference_solve with:
 
 # The reference's operator, assembled once (minutes at the default tier's size) for the
 # jobs below that measure runs against it, of every problem with the same s and reference
-# mesh (para_operator_owner); deleted when they are done
+# mesh (para_operator_owner). Kept, not temporary: made again for a later target, it would
+# be newer than Algorithm C's outputs and Snakemake would run Algorithm C again (hours at
+# the paper-scale tier); ancient() does not help, as it needs the file to exist
 rule para_reference_operator:
     input:
         ref=para_reference,
     output:
-        pkl=temp(f"{RES}/para/{{problem}}/reference-operator.pkl"),
+        pkl=f"{RES}/para/{{problem}}/reference-operator.pkl",
     log:
         f"{RES}/logs/para/{{problem}}_reference_operator.log",
     benchmark:
@@ -64,14 +66,14 @@ rule para_reference_operator:
 
 # The reference's family (para_reference_coarser and the reference) with the operator's
 # products of every run, built once (a minute at the default tier's size) for the jobs
-# below that measure runs against its limit; deleted when they are done
+# below that measure runs against its limit; kept, as the operator
 rule para_reference_family:
     input:
         ref=para_reference,
         operator=para_reference_operator,
         coarser=para_reference_coarser,
     output:
-        pkl=temp(f"{RES}/para/{{problem}}/reference-family.pkl"),
+        pkl=f"{RES}/para/{{problem}}/reference-family.pkl",
     log:
         f"{RES}/logs/para/{{problem}}_reference_family.log",
     benchmark:
