@@ -868,9 +868,8 @@ def test_algorithm_c_job_continues_from_its_checkpoint(tmp_path, monkeypatch, ca
 
 
 def test_checkpoint_of_other_coarser_runs_says_why_they_can_differ(tmp_path):
-    """A checkpoint whose family's coarser runs differ (compared bit for bit) is not
-    continued, and the reason names the usual cause, another thread count or processor;
-    another setting gets no such remark."""
+    """A checkpoint whose family's coarser runs differ beyond round-off is not continued,
+    and the reason says so; another setting gets no such remark."""
     para_adaptive = script("para_adaptive")
     key = para_adaptive.checkpoint_key(theta=0.5, coarser=["a", "b"])
     path = tmp_path / "c.npz"
@@ -879,10 +878,60 @@ def test_checkpoint_of_other_coarser_runs_says_why_they_can_differ(tmp_path):
     assert para_adaptive.why_not(path, key, 100, 5) == (2, None)
     _, why = para_adaptive.why_not(path, para_adaptive.checkpoint_key(
         theta=0.5, coarser=["a", "c"]), 100, 5)
-    assert "['coarser']" in why and "another number of threads" in why
+    assert "['coarser']" in why and "beyond round-off" in why
     _, why = para_adaptive.why_not(path, para_adaptive.checkpoint_key(
         theta=0.6, coarser=["a", "b"]), 100, 5)
-    assert "['theta']" in why and "threads" not in why
+    assert "['theta']" in why and "round-off" not in why
+
+
+def test_a_run_is_identified_up_to_round_off(tmp_path):
+    """run_fingerprint/same_run: a run whose values moved by round-off (1e-14 relative) is
+    the same run; one moved by 1e-7 of its norm in one entry, with two triangles swapped, with
+    a NaN, with an array more or of another shape or value is another."""
+    para_adaptive = script("para_adaptive")
+    rng = np.random.default_rng(5)
+    U = rng.standard_normal((3, 50))
+    tri = np.arange(30).reshape(10, 3)
+
+    def fp(name, **arrays):
+        np.savez(tmp_path / name, **{"U": U, "t": tri, "s": 0.5, **arrays})
+        return para_adaptive.run_fingerprint(tmp_path / name)
+
+    base = fp("base.npz")
+    assert para_adaptive.same_run(base, fp("again.npz"))
+    assert para_adaptive.same_run(base, fp("roundoff.npz", U=U * (1 + 1e-14)))
+    moved = U.copy()
+    moved[1, 7] += 1e-7 * np.linalg.norm(U)
+    t2 = tri.copy()
+    t2[[0, 1]] = t2[[1, 0]]
+    nan = U.copy()
+    nan[2, 3] = np.nan
+    for other in (fp("moved.npz", U=moved), fp("renumbered.npz", t=t2),
+                  fp("nan.npz", U=nan), fp("more.npz", extra=np.zeros(2)),
+                  fp("shape.npz", U=U.T), fp("s.npz", s=0.6)):
+        assert not para_adaptive.same_run(base, other)
+        assert not para_adaptive.same_run(other, base)
+    # an older key's SHA-256 of the bits: the same bits only
+    assert para_adaptive.same_run(base["sha256"], fp("again2.npz"))
+    assert para_adaptive.same_run(fp("again3.npz"), base["sha256"])
+    assert not para_adaptive.same_run(base["sha256"], fp("roundoff3.npz", U=U * (1 + 1e-14)))
+    # an array longer than one block of weights, moved in its last entry
+    big = rng.standard_normal(2 ** 20 + 5)
+    last = big.copy()
+    last[-1] += 1e-7 * np.linalg.norm(big)
+    assert para_adaptive.same_run(fp("big.npz", B=big), fp("big2.npz", B=big * (1 + 1e-14)))
+    assert not para_adaptive.same_run(fp("big3.npz", B=big), fp("big4.npz", B=last))
+    # a NaN where the other run has one too is the same run
+    assert para_adaptive.same_run(fp("nan1.npz", U=nan), fp("nan2.npz", U=nan * (1 + 1e-14)))
+    # the checkpoint's key: the coarser runs by same_run, in the family's order
+    r = fp("roundoff2.npz", U=U * (1 - 1e-14))
+    made = para_adaptive.checkpoint_key(theta=0.5, coarser=[base, fp("s2.npz", s=0.6)])
+    assert para_adaptive.checkpoint_differences(made, para_adaptive.checkpoint_key(
+        theta=0.5, coarser=[r, fp("s3.npz", s=0.6)])) == []
+    assert para_adaptive.checkpoint_differences(made, para_adaptive.checkpoint_key(
+        theta=0.5, coarser=[fp("s4.npz", s=0.6), r])) == ["coarser"]
+    assert para_adaptive.checkpoint_differences(made, para_adaptive.checkpoint_key(
+        theta=0.5, coarser=[r])) == ["coarser"]
 
 
 def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeypatch):
@@ -891,15 +940,19 @@ def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeyp
     starts; the run through it equals the run through from pass 0, and the committed file
     is only read.  One made with other settings, or not further on than the job's own
     checkpoint, is not used, and the job's own stays.  A reference is identified by its
-    arrays: the same arrays written again are the same run."""
+    arrays up to round-off: the same arrays written again, compressed and moved by
+    round-off, are the same run; moved by 1e-6 of their size, another."""
     para_adaptive = script("para_adaptive")
     m, U, ref, args = _small_algorithm_c_job(tmp_path)
     again = tmp_path / "ref-again.npz"
-    np.savez_compressed(again, s=0.5, U=U, times=np.array([0.0, 0.5, 1.0]), t=m.t, p=m.p)
-    assert para_adaptive.run_digest(again) == para_adaptive.run_digest(ref)
+    np.savez_compressed(again, s=0.5, U=U * (1 + 1e-14), times=np.array([0.0, 0.5, 1.0]),
+                        t=m.t, p=m.p)
+    assert para_adaptive.same_run(para_adaptive.run_fingerprint(again),
+                                  para_adaptive.run_fingerprint(ref))
     np.savez(tmp_path / "ref-other.npz", p=m.p, t=m.t, times=np.array([0.0, 0.5, 1.0]),
-             U=U + 1e-15, s=0.5)
-    assert para_adaptive.run_digest(tmp_path / "ref-other.npz") != para_adaptive.run_digest(ref)
+             U=U * (1 + 1e-6), s=0.5)
+    assert not para_adaptive.same_run(para_adaptive.run_fingerprint(tmp_path / "ref-other.npz"),
+                                      para_adaptive.run_fingerprint(ref))
 
     def outputs(d, **kw):
         d.mkdir()
@@ -974,8 +1027,8 @@ def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeyp
     assert other.invocation.tolist() == [0, 0, 0]
     assert hashlib.sha256(kept.read_bytes()).hexdigest() == digest
     made = str(np.load(kept)["checkpoint_key"])
-    assert para_adaptive.key_differences(made, made.replace(
-        json.loads(made)["ref"], "0" * 64)) == ["ref"]
+    older = {**json.loads(made), "ref": "0" * 64}     # an older key's SHA-256 of the reference
+    assert para_adaptive.checkpoint_differences(made, json.dumps(older)) == ["ref"]
 
 
 def test_results_page_names_one_file_per_problem_of_each_list(tmp_path):

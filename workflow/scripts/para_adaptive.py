@@ -26,8 +26,7 @@ import fracfem as ff
 from fracfem_workflow.io import (atomic_path, peak_memory_mb, provenance, save_arrays,
                                  with_provenance, write_table)
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.runs import (family_error, key_differences, parameter_columns, start,
-                                   stored_family)
+from fracfem_workflow.runs import family_error, parameter_columns, start, stored_family
 
 logger = script_logger("para_adaptive")
 
@@ -44,17 +43,91 @@ def _plain(value):
     return value.item() if hasattr(value, "item") else float(value)
 
 
-def run_digest(path) -> str:
-    """SHA-256 of the arrays of a run's ``.npz`` (names, types, shapes and values; not the
-    file's bytes, which hold the time it was written): a run computed again to the same
-    bits is the same run, one that differs by round-off is another."""
-    h = hashlib.sha256()
+# How far two stored runs' floating arrays may differ (relative to their norm) and still be
+# one run: far above round-off (the same run computed with another thread count or on another
+# processor), far below the errors the runs are measured to
+RUN_RTOL = 1e-9
+
+
+def run_fingerprint(path) -> dict:
+    """What identifies a stored run (its ``.npz``) up to round-off, per array (``arrays``):
+    its type and shape; of an integer, boolean or text array (a mesh's triangles) the SHA-256
+    of its values; of a floating array its 2-norm and two fixed random projections, which
+    same_run compares to RUN_RTOL (a run computed with another thread count is the same run;
+    one that differs beyond round-off is another).  ``sha256``: of all arrays' bits, as
+    older checkpoints' keys held it.  Not the file's bytes, which hold the time it was
+    written."""
+    arrays, h = {}, hashlib.sha256()
     with np.load(path, allow_pickle=False) as d:
         for k in sorted(d.files):
             a = np.ascontiguousarray(d[k])
             h.update(f"{k}:{a.dtype.str}:{a.shape};".encode())
             h.update(a.tobytes())
-    return h.hexdigest()
+            entry = {"dtype": a.dtype.str, "shape": list(a.shape)}
+            if a.dtype.kind in "fc":
+                x = a.ravel()
+                x = (np.concatenate([x.real, x.imag]) if a.dtype.kind == "c" else x).astype(float)
+                finite = np.isfinite(x)
+                if not finite.all():    # where and which NaN or ±inf: exactly
+                    entry["nonfinite_sha256"] = hashlib.sha256(
+                        np.flatnonzero(~finite).tobytes() + x[~finite].tobytes()).hexdigest()
+                    x = np.where(finite, x, 0)
+                rng, proj = np.random.default_rng(2), np.zeros(2)
+                for i in range(0, x.size, 2 ** 20):     # the weights a block at a time
+                    part = x[i:i + 2 ** 20]
+                    proj += rng.standard_normal((2, part.size)) @ part
+                entry["norm"] = float(np.linalg.norm(x))
+                entry["projections"] = [float(v) for v in proj]
+            else:
+                entry["sha256"] = hashlib.sha256(a.tobytes()).hexdigest()
+            arrays[k] = entry
+    return {"sha256": h.hexdigest(), "arrays": arrays}
+
+
+def same_run(a, b, rtol=RUN_RTOL) -> bool:
+    """Whether two run_fingerprint records are of one run: the same arrays, types, shapes and
+    exact values, and floating arrays whose norms and projections agree to ``rtol`` of their
+    norm.  A SHA-256 string (an older checkpoint's key) is one run with a fingerprint of the
+    same bits; anything else is compared as it is."""
+    if isinstance(a, str) and isinstance(b, dict) or isinstance(a, dict) and isinstance(b, str):
+        digest, record = (a, b) if isinstance(a, str) else (b, a)
+        return digest == record.get("sha256")
+    if not (isinstance(a, dict) and isinstance(b, dict)):
+        return a == b
+    a, b = a["arrays"], b["arrays"]
+    if sorted(a) != sorted(b):
+        return False
+    for k, x in a.items():
+        y = b[k]
+        exact = (set(x) | set(y)) - {"norm", "projections"}
+        if any(x.get(n) != y.get(n) for n in exact):
+            return False
+        if "norm" in x:
+            bound = rtol * max(x["norm"], y["norm"])
+            pairs = [(x["norm"], y["norm"])] + list(zip(x["projections"], y["projections"]))
+            if len(x["projections"]) != len(y["projections"]) or any(
+                    abs(u - v) > bound for u, v in pairs):
+                return False
+    return True
+
+
+def checkpoint_differences(made: str, key: str) -> list[str]:
+    """The settings in which a checkpoint's key ``made`` differs from ``key`` (sorted): the
+    reference and the family's coarser runs by same_run, the others exactly."""
+    a, b = json.loads(made), json.loads(key)
+    differ = []
+    for k in sorted(set(a) | set(b)):
+        x, y = a.get(k), b.get(k)
+        if k == "ref":
+            same = same_run(x, y)
+        elif k == "coarser":
+            same = (isinstance(x, list) and isinstance(y, list) and len(x) == len(y)
+                    and all(same_run(u, v) for u, v in zip(x, y)))
+        else:
+            same = x == y
+        if not same:
+            differ.append(k)
+    return differ
 
 
 def save_checkpoint(path, rec, key, rows, arrays, elapsed, t_eval, invocation):
@@ -92,11 +165,11 @@ def why_not(path, key, max_spacetime_dofs, max_iterations):
     if not path.exists():
         return -1, "no such file"
     made, first, rows = _stamp(path)
-    if made != key:
-        differ = key_differences(made, key)
-        hint = ("; the family's coarser runs are compared bit for bit, and runs computed "
-                "with another number of threads (job_threads, or fewer --cores) or on "
-                "another processor round differently" if "coarser" in differ else "")
+    differ = checkpoint_differences(made, key)
+    if differ:
+        hint = (f"; the family's coarser runs differ beyond round-off (relative {RUN_RTOL:g}), "
+                "or the checkpoint's key is of an older format that compared them bit for "
+                "bit" if "coarser" in differ or "ref" in differ else "")
         return -1, f"made with other settings (differing in {differ}){hint}"
     if first >= max_iterations or max(r["spacetime_dofs"] for r in rows) >= max_spacetime_dofs:
         return -1, (f"goes beyond max_iterations={max_iterations} or "
@@ -162,9 +235,10 @@ def keep_checkpoint(checkpoint, copy, force=False):
     with ``force`` (else ValueError)."""
     if Path(copy).exists() and not force:
         (made, kept, _), (key, ours, _) = _stamp(copy), _stamp(checkpoint)
-        if made != key:
+        differ = checkpoint_differences(made, key)
+        if differ:
             raise ValueError(f"{copy} was made with other settings than {checkpoint} "
-                             f"(differing in {key_differences(made, key)}): --force replaces it")
+                             f"(differing in {differ}): --force replaces it")
         if kept > ours:
             raise ValueError(f"{copy} continues with pass {kept}, {checkpoint} "
                              f"with pass {ours}: --force replaces it")
@@ -199,7 +273,7 @@ def main(problem, example, data, T, theta, start_level, c_tau, max_spacetime_dof
         problem=problem, example=example, data=data, T=T, theta=theta,
         start_level=start_level, c_tau=c_tau, figure_iterations=sorted(figure_iterations),
         output_times=list(output_times), tol=tol, quadrature=quadrature, operator=operator,
-        ref=run_digest(ref), coarser=[run_digest(c) for c in coarser])
+        ref=run_fingerprint(ref), coarser=[run_fingerprint(c) for c in coarser])
     if checkpoint is not None:
         seed_checkpoint(checkpoint, committed, key, max_spacetime_dofs, max_iterations)
     state = (None if checkpoint is None else
