@@ -934,6 +934,37 @@ def test_a_run_is_identified_up_to_round_off(tmp_path):
         theta=0.5, coarser=[r])) == ["coarser"]
 
 
+def test_a_run_at_another_thread_count_is_the_same_run(tmp_path):
+    """para_solve's run on one numba thread and on two: the checkpoint key's same_run takes
+    them for one run (their floating arrays differ by round-off, far below RUN_RTOL), a run
+    with other time steps for another."""
+    import numba
+
+    para_adaptive, solve = script("para_adaptive"), script("para_solve")
+    data, threads = {"s": 0.6, "F": 0.1, "r0": 0.6}, numba.get_num_threads()
+
+    def run(name, n, tau_factor=0.5):
+        solve.main("ex5", "reference", "L3", "ex5", data, 2.0, 0.2, tau_factor, 1e-10, {},
+                   tmp_path / f"{name}.csv", tmp_path / f"{name}.npz", threads=n)
+        return tmp_path / f"{name}.npz"
+
+    try:
+        one, two, other = run("one", 1), run("two", 2), run("other", 1, tau_factor=0.25)
+    finally:
+        numba.set_num_threads(threads)
+    fp = {k: para_adaptive.run_fingerprint(v) for k, v in
+          {"one": one, "two": two, "other": other}.items()}
+    assert para_adaptive.same_run(fp["one"], fp["two"])
+    assert not para_adaptive.same_run(fp["one"], fp["other"])
+    with np.load(one) as a, np.load(two) as b:
+        for k in a.files:
+            if a[k].dtype.kind == "f" and np.linalg.norm(a[k]) > 0:
+                diff = np.linalg.norm(a[k] - b[k]) / np.linalg.norm(a[k])
+                assert diff < 1e-4 * para_adaptive.RUN_RTOL, (k, diff)
+            else:
+                np.testing.assert_array_equal(a[k], b[k])
+
+
 def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeypatch):
     """A checkpoint kept in the repository (keep_checkpoint: deflated, same slabs and
     records; an earlier one does not replace it) is where a job without one of its own
