@@ -26,7 +26,8 @@ import fracfem as ff
 from fracfem_workflow.io import (atomic_path, peak_memory_mb, provenance, save_arrays,
                                  with_provenance, write_table)
 from fracfem_workflow.logs import script_logger
-from fracfem_workflow.runs import family_error, parameter_columns, start, stored_family
+from fracfem_workflow.runs import (family_error, key_differences, parameter_columns, start,
+                                   stored_family)
 
 logger = script_logger("para_adaptive")
 
@@ -119,20 +120,11 @@ def same_run(a, b, rtol=RUN_RTOL) -> bool:
 def checkpoint_differences(made: str, key: str) -> list[str]:
     """The settings in which a checkpoint's key ``made`` differs from ``key`` (sorted): the
     reference and the family's coarser runs by same_run, the others exactly."""
-    a, b = json.loads(made), json.loads(key)
-    differ = []
-    for k in sorted(set(a) | set(b)):
-        x, y = a.get(k), b.get(k)
-        if k == "ref":
-            same = same_run(x, y)
-        elif k == "coarser":
-            same = (isinstance(x, list) and isinstance(y, list) and len(x) == len(y)
-                    and all(same_run(u, v) for u, v in zip(x, y)))
-        else:
-            same = x == y
-        if not same:
-            differ.append(k)
-    return differ
+    return key_differences(made, key, same={
+        "ref": same_run,
+        "coarser": lambda x, y: (isinstance(x, list) and isinstance(y, list)
+                                 and len(x) == len(y)
+                                 and all(same_run(u, v) for u, v in zip(x, y)))})
 
 
 def save_checkpoint(path, rec, key, rows, arrays, elapsed, t_eval, invocation):

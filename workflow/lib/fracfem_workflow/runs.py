@@ -80,11 +80,14 @@ def _same(recorded, expected) -> bool:
         return str(recorded) == str(expected)
 
 
-def key_differences(made: str, key: str) -> list[str]:
+def key_differences(made: str, key: str, same=None) -> list[str]:
     """The top-level settings in which the JSON record ``made`` (a checkpoint's key, a kept
-    table's settings) differs from ``key``, sorted."""
+    table's settings) differs from ``key``, sorted; ``same``: {setting: function of the two
+    values saying whether they agree} for settings not compared by equality."""
     a, b = json.loads(made), json.loads(key)
-    return sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+    same = same or {}
+    return sorted(k for k in set(a) | set(b)
+                  if not same.get(k, lambda x, y: x == y)(a.get(k), b.get(k)))
 
 
 def mismatched_parameters(recorded: dict, expected: dict) -> list[str]:
