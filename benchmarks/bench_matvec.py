@@ -21,6 +21,11 @@ order); ``leaf_matrix_mb`` the leaf matrix's share of ``nbytes_mb``.
 
     python benchmarks/bench_matvec.py --levels 5 6 7 --md benchmarks/matvec.md
 
+``column_in_block_<k>_s``: seconds per column of ``op @ X`` for a block X of columns
+taken k at a time (:meth:`fracfem.CompressedOperator._matmat`, as the error measurements
+of the parabolic runs apply the reference's operator; 1: one product per column), and
+``block_rel_diff`` the largest relative difference from the products column by column.
+
 Each level runs after compiling every kernel on a small mesh; the load
 average is recorded before and after each level.
 """
@@ -46,7 +51,32 @@ def _median_s(fn, x, repeat):
     return float(np.median(ts))
 
 
-def measure(level: int, s: float, repeat: int) -> dict:
+def _block_columns(op, blocks, repeat) -> dict:
+    """Seconds per column of ``op @ X`` (X of 2·max(blocks) columns) in blocks of each
+    size k of ``blocks`` (compressed.MATMAT_COLUMNS = k; 1: column by column), and the
+    largest relative difference of a block's product from the products column by
+    column."""
+    from fracfem import compressed
+
+    X = np.random.default_rng(2).standard_normal((op.shape[0], 2 * max(blocks)))
+    single = np.column_stack([op @ X[:, j] for j in range(X.shape[1])])
+    out, diff = {}, 0.0
+    keep = compressed.MATMAT_COLUMNS
+    try:
+        for k in blocks:
+            compressed.MATMAT_COLUMNS = k
+            out[f"column_in_block_{k}_s"] = _median_s(
+                (lambda Y: np.column_stack([op @ Y[:, j] for j in range(Y.shape[1])]))
+                if k == 1 else op.matmat, X, repeat) / X.shape[1]
+            if k > 1:
+                diff = max(diff, float(np.linalg.norm(op.matmat(X) - single)
+                                       / np.linalg.norm(single)))
+    finally:
+        compressed.MATMAT_COLUMNS = keep
+    return {**out, "block_rel_diff": diff}
+
+
+def measure(level: int, s: float, repeat: int, blocks=(1, 8, 32)) -> dict:
     import numba
     from threadpoolctl import threadpool_limits
 
@@ -92,7 +122,13 @@ def measure(level: int, s: float, repeat: int) -> dict:
                 product_rel_diff=float(np.linalg.norm(new - ref) / np.linalg.norm(ref)),
                 nbytes_mb=op.nbytes / 2**20,
                 leaf_matrix_mb=compressed._csr_bytes(op.leaf_matrix) / 2**20,
+                **_block_columns(op, blocks, max(1, repeat // 3)),
                 load=f"{load0:.1f}-{os.getloadavg()[0]:.1f}")
+
+
+def numba_threads() -> int:
+    import numba
+    return numba.get_num_threads()
 
 
 def main(argv=None):
@@ -100,15 +136,19 @@ def main(argv=None):
     ap.add_argument("--levels", type=int, nargs="+", default=[5, 6, 7])
     ap.add_argument("--s", type=float, default=0.6)
     ap.add_argument("--repeat", type=int, default=7)
+    ap.add_argument("--blocks", type=int, nargs="+", default=[1, 8, 32],
+                    help="block sizes of the products of several columns (1: one by one)")
     ap.add_argument("--md", default=None)
     args = ap.parse_args(argv)
     if not 0.0 < args.s < 1.0:
         raise SystemExit(f"--s={args.s} must lie in (0, 1)")
     if args.repeat < 1:
         raise SystemExit(f"--repeat={args.repeat} must be a positive count")
+    if min(args.blocks) < 1:
+        raise SystemExit(f"--blocks={args.blocks} must be positive column counts")
     rows = []
     for level in args.levels:
-        rows.append(measure(level, args.s, args.repeat))
+        rows.append(measure(level, args.s, args.repeat, sorted(set(args.blocks))))
         print(rows[-1], flush=True)
     df = pd.DataFrame(rows)
     df["product_speedup"] = df["before_s"] / df["product_s"]
@@ -118,7 +158,8 @@ def main(argv=None):
             fh.write(f"`python benchmarks/bench_matvec.py --levels "
                      f"{' '.join(map(str, args.levels))} --md {args.md}`: uniform disks, "
                      f"s = {args.s}, default tolerance and leaves, median of {args.repeat} "
-                     f"products; {os.cpu_count()} cores, {datetime.date.today()}.\n\n")
+                     f"products; {os.cpu_count()} cores, {numba_threads()} numba threads, "
+                     f"{datetime.date.today()}.\n\n")
             fh.write("before_s: the product before the leaf matrix and the BLAS limit "
                      "(element sources and leaf kernels, scipy's one-thread near-field "
                      "product, BLAS threading each call inside the numba threads); "
@@ -127,7 +168,11 @@ def main(argv=None):
                      "into near_field_s and far_field_s; couple_s: the coupling of the "
                      "admissible blocks with BLAS on one thread, couple_blas_threads_s: "
                      "with BLAS threading each call; product_rel_diff: |product − "
-                     "reference| / |reference|; product_speedup: before_s / product_s; "
+                     "reference| / |reference|; column_in_block_<k>_s: seconds per "
+                     "column of the product of a block of columns, k at a time "
+                     "(CompressedOperator._matmat; 1: column by column), block_rel_diff: "
+                     "its largest relative difference from the products column by column; "
+                     "product_speedup: before_s / product_s; "
                      "load: 1-minute load average before-after.\n\n")
             fh.write(df.to_markdown(index=False, floatfmt=".4g"))
             fh.write("\n")

@@ -451,6 +451,46 @@ def csr_rmatvec(indptr, indices, data, g, ncols, nchunks):  # pragma: no cover
     return y
 
 
+
+@njit(cache=True, parallel=True)
+def csr_matmat(indptr, indices, data, X, nchunks):  # pragma: no cover
+    """Y = A X for A in CSR arrays and X (ncols, k) C-ordered: :func:`csr_matvec`
+    with k right-hand sides, each entry of A read once for all of them (the
+    product is bound by reading A)."""
+    k = X.shape[1]
+    Y = np.zeros((indptr.shape[0] - 1, k))
+    bounds = _row_chunks(indptr, nchunks)
+    for c in prange(nchunks):
+        for i in range(bounds[c], bounds[c + 1]):
+            for q in range(indptr[i], indptr[i + 1]):
+                a = data[q]
+                j = indices[q]
+                for r in range(k):
+                    Y[i, r] += a * X[j, r]
+    return Y
+
+
+@njit(cache=True, parallel=True)
+def csr_rmatmat(indptr, indices, data, G, ncols, nchunks):  # pragma: no cover
+    """Y = Aᵀ G for A in CSR arrays (ncols columns) and G (nrows, k) C-ordered:
+    :func:`csr_rmatvec` with k right-hand sides."""
+    k = G.shape[1]
+    bounds = _row_chunks(indptr, nchunks)
+    Y = np.zeros((nchunks, ncols, k))
+    for c in prange(nchunks):
+        for i in range(bounds[c], bounds[c + 1]):
+            for q in range(indptr[i], indptr[i + 1]):
+                a = data[q]
+                j = indices[q]
+                for r in range(k):
+                    Y[c, j, r] += a * G[i, r]
+    out = np.zeros((ncols, k))
+    for c in range(nchunks):
+        for j in range(ncols):
+            for r in range(k):
+                out[j, r] += Y[c, j, r]
+    return out
+
 # ---------------------------------------------------------------- near field
 
 

@@ -355,6 +355,14 @@ FAR_BATCH_BYTES = 128 * 2**20
 # ---------------------------------------------------------------- operator
 
 
+# a block of :meth:`CompressedOperator._matmat`: at most this many columns (the near field
+# is read once for them; more columns make the far field's work arrays outgrow the caches,
+# and blocks of 32 are no faster: benchmarks/matvec.md), whose far-field work arrays take
+# at most this many bytes
+MATMAT_COLUMNS = 8
+MATMAT_BYTES = 256 * 2**20
+
+
 class CompressedOperator(spla.LinearOperator):
     """Free-node stiffness operator: ``op @ x``, ``op.diagonal()``, ``op.nbytes``."""
 
@@ -447,6 +455,74 @@ class CompressedOperator(spla.LinearOperator):
     def _matvec(self, x):
         x = np.asarray(x, dtype=np.float64).reshape(-1)
         return self.near_matvec(x) + self.far_matvec(x)
+
+    def _matmat(self, X):
+        """``op @ X`` for X (n, k): the near field and the leaf matrix read once for
+        a block of columns, the far field's coupling one matrix product per group for
+        all of them; the columns in blocks whose far-field work arrays take at most
+        :data:`MATMAT_BYTES`.  Equal to k products ``op @ X[:, j]`` up to the order
+        of summation."""
+        X = np.asarray(X, dtype=np.float64)
+        if X.ndim != 2 or X.shape[0] != self.shape[1]:
+            raise ValueError(f"X must have shape ({self.shape[1]}, k), got {X.shape}")
+        k = X.shape[1]
+        if k == 0 or self.leaf_matrix is None:
+            return np.column_stack([self._matvec(X[:, j]) for j in range(k)]) if k \
+                else np.zeros((self.shape[0], 0))
+        block = self.matmat_block()
+        out = np.empty((self.shape[0], k))
+        for j0 in range(0, k, block):
+            Xb = np.ascontiguousarray(X[:, j0:j0 + block])
+            out[:, j0:j0 + block] = self._near_matmat(Xb) + self._far_matmat(Xb)
+        return out
+
+    def _rmatmat(self, X):
+        return self._matmat(X)
+
+    def matmat_block(self) -> int:
+        """Columns per block of :meth:`_matmat`: the far field's per-thread sums of the
+        coupling (threads × clusters × 2 columns × m² values) within MATMAT_BYTES."""
+        import numba
+        f = self._far
+        p = f["z"].shape[0] ** 2
+        per_column = 8 * 2 * p * len(f["tgt"]["boxes"]) * (numba.get_num_threads() + 2)
+        return int(max(1, min(MATMAT_COLUMNS, MATMAT_BYTES // max(per_column, 1))))
+
+    def _near_matmat(self, X):
+        import numba
+        A = self.near
+        return hk.csr_matmat(A.indptr, A.indices, A.data, X, numba.get_num_threads())
+
+    def _far_matmat(self, X):
+        """:meth:`far_matvec` for the columns of X (n, k): column j's two expansions
+        are rows 2j, 2j + 1 of the clusters' work arrays."""
+        import numba
+        M = self.leaf_matrix
+        f = self._far
+        S, T, z = f["src"], f["tgt"], f["z"]
+        m = z.shape[0]
+        p = m * m
+        k = X.shape[1]
+        nth = numba.get_num_threads()
+        leaves = S["leaves"]
+        W = np.zeros((len(S["boxes"]), 2 * k, p))
+        MX = hk.csr_matmat(M.indptr, M.indices, M.data, X, nth)     # (leaves·2·p, k)
+        W[leaves] = MX.reshape(len(leaves), 2, p, k).transpose(0, 3, 1, 2).reshape(
+            len(leaves), 2 * k, p)
+        del MX
+        hk.upward(W, S["E"], S["level_nodes"], S["level_ptr"], S["child0"], S["child1"], m)
+        G = _couple(f, W, None, None)
+        del W
+        hk.downward(G, T["E"], T["level_nodes"], T["level_ptr"], T["child0"], T["child1"],
+                    m)
+        Gl = G[leaves].reshape(len(leaves), k, 2, p)
+        del G
+        out = np.empty((len(leaves), 2, p, k))
+        out[:, 0] = (Gl[:, :, 0] + Gl[:, :, 1]).transpose(0, 2, 1)
+        out[:, 1] = Gl[:, :, 0].transpose(0, 2, 1)
+        Y = hk.csr_rmatmat(M.indptr, M.indices, M.data, out.reshape(-1, k), M.shape[1],
+                           nth)
+        return -f["c"] * Y
 
     def _rmatvec(self, x):
         return self._matvec(x)
@@ -576,8 +652,8 @@ def _couple_blocks(f: dict, W: np.ndarray, K: np.ndarray | None, lazy) -> np.nda
     nc, nth = len(f["tgt"]["boxes"]), numba.get_num_threads()
     ptr, rows, cols = f["grp_ptr"], f["grp_rows"], f["grp_cols"]
     if lazy is None:
-        return hk.couple_grouped(W, f["K"] if K is None else K, ptr, rows, cols, nc,
-                                 nth).sum(axis=0)
+        G = hk.couple_grouped(W, f["K"] if K is None else K, ptr, rows, cols, nc, nth)
+        return G[0] if nth == 1 else G.sum(axis=0)
     comp, per = lazy
     G = np.zeros((nc, W.shape[1], W.shape[2]))
     for g0 in range(0, len(ptr) - 1, per):

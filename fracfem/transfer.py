@@ -173,7 +173,9 @@ class _Span:
         Q, sv, Vt = np.linalg.svd(X, full_matrices=False)
         r = max(1, int(np.count_nonzero(sv > rtol * sv[0]))) if sv.size and sv[0] > 0 else 0
         self.C = sv[:r, None] * Vt[:r]
-        self.Y = np.column_stack([apply(interp @ Q[:, k]) for k in range(r)]) if r \
+        # one product with the block of r columns: a compressed operator reads its
+        # near field once for a block, a dense matrix multiplies matrices
+        self.Y = apply(np.asarray(interp @ Q[:, :r])) if r \
             else np.zeros((interp.shape[0], 0))
 
     def product(self, col):
@@ -185,9 +187,10 @@ class SpaceTimeReference:
     many functions against: ``distance(pieces)`` is ‖I u − u_ref‖_{L²(0,T; a)}.
 
     ``reference``: list of (t0, t1, mesh, u) on one mesh (u on all its nodes);
-    ``A_ref``: the free-node matrix of that mesh (an array or an operator with
-    ``@``); ``free_ref``: its free nodes.  On each interval of the union of the two
-    time grids e = I u_i − u_ref,j and A e = A I u_i − A u_ref,j, so the matrix
+    ``A_ref``: the free-node matrix of that mesh (an array, a sparse matrix or a
+    LinearOperator: ``@`` of a vector and of a block of columns); ``free_ref``: its
+    free nodes.  On each interval of the union of the two time grids
+    e = I u_i − u_ref,j and A e = A I u_i − A u_ref,j, so the matrix
     is needed for the reference's pieces (kept for later distances) and for the
     pieces of u, not on every interval.  It is applied to a basis of each mesh's
     pieces rather than to every piece: the nodal vectors of the pieces on one mesh
@@ -220,8 +223,13 @@ class SpaceTimeReference:
         return self._span.product(j)
 
     def _apply(self, x):
-        self.matvecs += 1
-        return np.asarray(self.A @ x, dtype=float)
+        """A x for a vector, or for each column of a block (counted as one product each)."""
+        self.matvecs += 1 if x.ndim == 1 else x.shape[1]
+        y = np.asarray(self.A @ x, dtype=float)
+        if y.shape != x.shape:
+            raise ValueError(f"A_ref @ x gave shape {y.shape} for x of shape {x.shape}: "
+                             "A_ref must map (n,) to (n,) and (n, k) to (n, k)")
+        return y
 
     def distance(self, pieces) -> float:
         """‖I u − u_ref‖_{L²(0,T; a)}: u is interpolated onto the reference mesh

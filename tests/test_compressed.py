@@ -521,3 +521,42 @@ def test_near_field_in_row_classes_equals_per_thread_copies():
         own = set(t[tree["perm"][tree["start"][c]:tree["end"][c]]].ravel().tolist())
         written = set(row_of[data[0] != 0].tolist())
         assert written and written <= own
+
+
+@pytest.mark.parametrize("name,s,leaf", [("lshape", 0.3, 8), ("disk", 0.8, 24)])
+def test_product_of_a_block_of_columns_equals_the_products_column_by_column(
+        name, s, leaf, monkeypatch):
+    """op @ X (CompressedOperator._matmat: the near field and the leaf matrix read once
+    for a block, the far field's expansions of all its columns together) against its
+    reference, op @ x column by column; in blocks of every size up to more than the
+    columns, with a last block shorter than the others."""
+    from fracfem import compressed
+    mesh = MESHES[name]()
+    op = stiffness_operator(mesh, s, leaf_size=leaf)
+    assert op.info["far_blocks"] > 0
+    rng = np.random.default_rng(11)
+    X = np.column_stack([rng.standard_normal((op.shape[0], 5)), np.ones(op.shape[0]),
+                         np.eye(op.shape[0])[:, 3]])
+    single = np.column_stack([op @ x for x in X.T])
+    # the columns differ, so a block mixing them up would not pass
+    assert np.linalg.norm(single[:, 0] - single[:, 1]) > 0.1 * np.linalg.norm(single[:, 0])
+    for block in (1, 2, 3, 7, 32):
+        monkeypatch.setattr(compressed, "MATMAT_COLUMNS", block)
+        assert op.matmat_block() == block
+        Y = op @ X
+        assert Y.shape == X.shape
+        np.testing.assert_allclose(Y, single, rtol=0, atol=1e-13 * np.abs(single).max())
+    # a block of one column and no columns at all; a block of the wrong length
+    np.testing.assert_allclose(op @ X[:, :1], single[:, :1], rtol=0,
+                               atol=1e-13 * np.abs(single).max())
+    assert (op @ X[:, :0]).shape == (op.shape[0], 0)
+    with pytest.raises(ValueError, match="X must have shape"):
+        op._matmat(X[1:])
+    # the memory bound: blocks shrink to fit MATMAT_BYTES, never below one column
+    monkeypatch.setattr(compressed, "MATMAT_COLUMNS", 32)
+    monkeypatch.setattr(compressed, "MATMAT_BYTES", 1)
+    assert op.matmat_block() == 1
+    np.testing.assert_allclose(op @ X, single, rtol=0, atol=1e-13 * np.abs(single).max())
+    # without the leaf matrix: the reference path, column by column
+    bare = stiffness_operator(mesh, s, leaf_size=leaf, leaf_matrices=False)
+    np.testing.assert_allclose(bare @ X, single, rtol=0, atol=1e-13 * np.abs(single).max())

@@ -323,3 +323,28 @@ def test_energy_distance_of_nested_galerkin_solutions_is_their_load_difference(o
         assert energy_distance(fine, uf, (df, uf)) < 1e-12 * d
     with pytest.raises(ValueError, match="u_ref must have one value per node"):
         energy_distance(coarse, uc, (df, uc))
+
+
+def test_reference_refuses_an_operator_that_cannot_take_a_block_of_columns():
+    """The reference's matrix is applied to a block of columns at once: an operator whose
+    ``@`` flattens a block is refused by name, not summed into a wrong distance."""
+    from fracfem import discretise
+    from fracfem.transfer import SpaceTimeReference
+    mesh = disk_uniform(2)
+    disc = discretise(mesh, 0.5)
+    u = np.zeros(mesh.p.shape[1])
+    u[disc.free] = np.linspace(1.0, 2.0, len(disc.free))
+
+    class Flat:
+        def __matmul__(self, x):
+            return (disc.A @ x).ravel()
+
+    ref = SpaceTimeReference([(0.0, 0.5, mesh, u), (0.5, 1.0, mesh, 2 * u)], Flat(),
+                             disc.free)
+    with pytest.raises(ValueError, match="A_ref must map"):
+        ref.distance([(0.0, 1.0, mesh, u)])
+    good = SpaceTimeReference([(0.0, 0.5, mesh, u), (0.5, 1.0, mesh, 2 * u)], disc.A,
+                              disc.free)
+    # ‖u − u_ref‖ = ‖u‖_a on (0.5, 1) only
+    a = np.sqrt(0.5 * u[disc.free] @ disc.A @ u[disc.free])
+    assert good.distance([(0.0, 1.0, mesh, u)]) == pytest.approx(a, rel=1e-12)
