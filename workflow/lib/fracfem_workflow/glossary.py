@@ -540,6 +540,13 @@ GROUPS = [
                                  "the numba threads",
         "product_rel_diff": "|product − reference product| / |reference product|",
         "leaf_matrix_mb": "memory of the leaf matrix within nbytes_mb, MiB",
+        "column_in_block_1_s": "seconds per column of the products of a block of columns "
+                               "taken one at a time",
+        "column_in_block_8_s": "the same, 8 columns at a time (CompressedOperator._matmat: "
+                               "the near field and the leaf matrix read once for them)",
+        "column_in_block_32_s": "the same, 32 at a time",
+        "block_rel_diff": "largest |block product − products column by column| / "
+                          "|products column by column|",
         "product_speedup": "before_s / product_s",
     }),
     ("Where the Taylor rule starts (`benchmarks/taylor-threshold.md`)", False, {
