@@ -24,7 +24,9 @@ order); ``leaf_matrix_mb`` the leaf matrix's share of ``nbytes_mb``.
 ``column_in_block_<k>_s``: seconds per column of ``op @ X`` for a block X of columns
 taken k at a time (:meth:`fracfem.CompressedOperator._matmat`, as the error measurements
 of the parabolic runs apply the reference's operator; 1: one product per column), and
-``block_rel_diff`` the largest relative difference from the products column by column.
+``block_used_<k>`` the block the operator used (at most k: its far-field work arrays are
+held within ``compressed.MATMAT_BYTES``), and ``block_rel_diff`` the largest relative
+difference from the products column by column.
 
 Each level runs after compiling every kernel on a small mesh; the load
 average is recorded before and after each level.
@@ -53,7 +55,8 @@ def _median_s(fn, x, repeat):
 
 def _block_columns(op, blocks, repeat) -> dict:
     """Seconds per column of ``op @ X`` (X of 2·max(blocks) columns) in blocks of each
-    size k of ``blocks`` (compressed.MATMAT_COLUMNS = k; 1: column by column), and the
+    size k of ``blocks`` (compressed.MATMAT_COLUMNS = k; 1: column by column; the block
+    the operator used, at most k within its memory bound: ``block_used_<k>``), and the
     largest relative difference of a block's product from the products column by
     column."""
     from fracfem import compressed
@@ -65,6 +68,7 @@ def _block_columns(op, blocks, repeat) -> dict:
     try:
         for k in blocks:
             compressed.MATMAT_COLUMNS = k
+            out[f"block_used_{k}"] = op.matmat_block()
             out[f"column_in_block_{k}_s"] = _median_s(
                 (lambda Y: np.column_stack([op @ Y[:, j] for j in range(Y.shape[1])]))
                 if k == 1 else op.matmat, X, repeat) / X.shape[1]
@@ -122,7 +126,7 @@ def measure(level: int, s: float, repeat: int, blocks=(1, 8, 32)) -> dict:
                 product_rel_diff=float(np.linalg.norm(new - ref) / np.linalg.norm(ref)),
                 nbytes_mb=op.nbytes / 2**20,
                 leaf_matrix_mb=compressed._csr_bytes(op.leaf_matrix) / 2**20,
-                **_block_columns(op, blocks, max(1, repeat // 3)),
+                **_block_columns(op, blocks, repeat),
                 load=f"{load0:.1f}-{os.getloadavg()[0]:.1f}")
 
 
@@ -170,7 +174,9 @@ def main(argv=None):
                      "with BLAS threading each call; product_rel_diff: |product − "
                      "reference| / |reference|; column_in_block_<k>_s: seconds per "
                      "column of the product of a block of columns, k at a time "
-                     "(CompressedOperator._matmat; 1: column by column), block_rel_diff: "
+                     "(CompressedOperator._matmat; 1: column by column), block_used_<k>: "
+                     "the block it used (at most k, within its memory bound), "
+                     "block_rel_diff: "
                      "its largest relative difference from the products column by column; "
                      "product_speedup: before_s / product_s; "
                      "load: 1-minute load average before-after.\n\n")

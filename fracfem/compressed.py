@@ -356,9 +356,8 @@ FAR_BATCH_BYTES = 128 * 2**20
 
 
 # a block of :meth:`CompressedOperator._matmat`: at most this many columns (the near field
-# is read once for them; more columns make the far field's work arrays outgrow the caches,
-# and blocks of 32 are no faster: benchmarks/matvec.md), whose far-field work arrays take
-# at most this many bytes
+# is read once for them; larger blocks were no faster in benchmarks/matvec.md), whose
+# far-field work arrays take at most this many bytes
 MATMAT_COLUMNS = 8
 MATMAT_BYTES = 256 * 2**20
 
@@ -480,12 +479,16 @@ class CompressedOperator(spla.LinearOperator):
         return self._matmat(X)
 
     def matmat_block(self) -> int:
-        """Columns per block of :meth:`_matmat`: the far field's per-thread sums of the
-        coupling (threads × clusters × 2 columns × m² values) within MATMAT_BYTES."""
+        """Columns per block of :meth:`_matmat`: its far-field work arrays within
+        MATMAT_BYTES.  Per column: the clusters' expansions (2 × m² values each) in the
+        moments, in every thread's sums of the coupling and in their total, and every
+        thread's gathered moments of its largest group of blocks and their product."""
         import numba
         f = self._far
         p = f["z"].shape[0] ** 2
-        per_column = 8 * 2 * p * len(f["tgt"]["boxes"]) * (numba.get_num_threads() + 2)
+        nth = numba.get_num_threads()
+        most = int(np.diff(f["grp_ptr"]).max(initial=1))
+        per_column = 8 * 2 * p * (len(f["tgt"]["boxes"]) * (nth + 2) + 2 * nth * most)
         return int(max(1, min(MATMAT_COLUMNS, MATMAT_BYTES // max(per_column, 1))))
 
     def _near_matmat(self, X):

@@ -552,10 +552,23 @@ def test_product_of_a_block_of_columns_equals_the_products_column_by_column(
     assert (op @ X[:, :0]).shape == (op.shape[0], 0)
     with pytest.raises(ValueError, match="X must have shape"):
         op._matmat(X[1:])
-    # the memory bound: blocks shrink to fit MATMAT_BYTES, never below one column
+    # the far field alone, against its own size (the near field dominates op @ x)
+    monkeypatch.setattr(compressed, "MATMAT_COLUMNS", 4)
+    far = np.column_stack([op.far_matvec(x) for x in X.T])
+    np.testing.assert_allclose(op._far_matmat(np.ascontiguousarray(X[:, :4])), far[:, :4],
+                               rtol=0, atol=1e-13 * np.abs(far).max())
+    # on one thread (the coupling's sums are then the one thread's own array)
+    import numba
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        np.testing.assert_allclose(op @ X, single, rtol=0,
+                                   atol=1e-13 * np.abs(single).max())
+    finally:
+        numba.set_num_threads(threads)
+    # a memory bound below one column's work arrays: one column at a time
     monkeypatch.setattr(compressed, "MATMAT_COLUMNS", 32)
     monkeypatch.setattr(compressed, "MATMAT_BYTES", 1)
-    assert op.matmat_block() == 1
     np.testing.assert_allclose(op @ X, single, rtol=0, atol=1e-13 * np.abs(single).max())
     # without the leaf matrix: the reference path, column by column
     bare = stiffness_operator(mesh, s, leaf_size=leaf, leaf_matrices=False)

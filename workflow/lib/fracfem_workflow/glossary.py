@@ -545,6 +545,10 @@ GROUPS = [
         "column_in_block_8_s": "the same, 8 columns at a time (CompressedOperator._matmat: "
                                "the near field and the leaf matrix read once for them)",
         "column_in_block_32_s": "the same, 32 at a time",
+        "block_used_1": "the block the operator used when asked for 1 column at a time",
+        "block_used_8": "the block it used when asked for 8 (at most 8: its far-field "
+                        "work arrays are held within compressed.MATMAT_BYTES)",
+        "block_used_32": "the block it used when asked for 32",
         "block_rel_diff": "largest |block product − products column by column| / "
                           "|products column by column|",
         "product_speedup": "before_s / product_s",
