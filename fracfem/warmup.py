@@ -4,9 +4,10 @@ numba compiles a kernel at its first call and keeps the machine code in its cach
 (``cache=True``); a later process loads it in a fraction of a second.  The first process
 on a fresh installation pays the compilation, tens of seconds, inside whatever it times
 first.  :func:`warm_up` runs each path once on tiny meshes (dense assembly on shape-regular
-and anisotropic meshes, the compressed operator and its solver, the obstacle and friction
-solvers and indicators, a space-time adaptive pass) so that the cache holds every kernel
-before timed work starts; it leaves a stamp (:func:`stamp`) and ``python -m
+and anisotropic meshes, the compressed operator, its product with a block of columns and
+its solver, the obstacle and friction solvers and indicators, a space-time adaptive pass)
+so that the cache holds every kernel before timed work starts; it leaves a stamp
+(:func:`stamp`) and ``python -m
 fracfem.warmup`` does nothing while the stamp is there.  The pipeline runs that before its
 first job::
 
@@ -41,6 +42,8 @@ def is_warm() -> bool:
 
 def warm_up() -> float:
     """Run every kernel once (no operator cache); returns the seconds it took."""
+    import numpy as np
+
     import fracfem as ff
     from fracfem import pointwise
 
@@ -50,6 +53,7 @@ def warm_up() -> float:
         ff.discretise(ff.disk_graded_aniso(0.5), 0.5)
         d = ff.discretise(ff.disk_uniform(4), 0.5, operator="compressed")
         ff.solve_laplace(d)
+        d.A @ np.ones((d.A.shape[0], 2))      # a block of columns (reference distances)
         mesh = ff.disk_uniform(3)             # the pointwise (−Δ)ˢu_h's compressed path
         pointwise.fractional_laplacian_qp(mesh, 1.0 - (mesh.p ** 2).sum(axis=0), 0.5, 4,
                                           method="compressed")

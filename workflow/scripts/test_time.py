@@ -19,13 +19,15 @@ ROOT = Path(__file__).resolve().parents[2]
 def main(out):
     load = os.getloadavg()[0]
     t0 = time.perf_counter()
-    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "auto",
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "auto", "-rf",
                           "-p", "no:cacheprovider"], cwd=ROOT, capture_output=True, text=True)
     minutes = (time.perf_counter() - t0) / 60
     summary = run.stdout.strip().splitlines()[-1] if run.stdout.strip() else ""
     passed = re.search(r"(\d+) passed", summary)
     if run.returncode != 0 or not passed:
-        sys.exit(f"the tests did not pass, nothing written:\n{summary}")
+        failed = [ln for ln in run.stdout.splitlines() if ln.startswith("FAILED")]
+        sys.exit("the tests did not pass, nothing written:\n"
+                 + "\n".join(failed + [summary]))
     line = (f"`pytest -n auto` runs {passed.group(1)} tests in {minutes:.0f} minutes on "
             f"{os.cpu_count()} cores (load average {load:.1f} when it started).")
     Path(out, "test-time.md").write_text(line + "\n")
