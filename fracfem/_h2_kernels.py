@@ -453,43 +453,35 @@ def csr_rmatvec(indptr, indices, data, g, ncols, nchunks):  # pragma: no cover
 
 
 @njit(cache=True, parallel=True)
-def csr_matmat(indptr, indices, data, X, nchunks):  # pragma: no cover
-    """Y = A X for A in CSR arrays and X (ncols, k) C-ordered: :func:`csr_matvec`
-    with k right-hand sides, each entry of A read once for all of them (the
-    product is bound by reading A)."""
-    k = X.shape[1]
-    Y = np.zeros((indptr.shape[0] - 1, k))
+def csr_block_product(indptr, indices, data, B, ncols, transpose,
+                      nchunks):  # pragma: no cover
+    """A B, or Aᵀ B with ``transpose``, for A in CSR arrays (ncols columns) and a block
+    B (rows, k) C-ordered: :func:`csr_matvec` and :func:`csr_rmatvec` with k
+    right-hand sides, each entry of A read once for all of them (the product is bound
+    by reading A).  Row ranges of about equal numbers of entries, one per thread; A B
+    writes each row once, Aᵀ B scatters into the thread's own sums."""
+    k = B.shape[1]
+    n = indptr.shape[0] - 1
     bounds = _row_chunks(indptr, nchunks)
+    per_thread = 1 if transpose else 0          # Aᵀ B: each thread its own sums
+    Y = np.zeros((nchunks if transpose else 1, ncols if transpose else n, k))
     for c in prange(nchunks):
+        own = c * per_thread
         for i in range(bounds[c], bounds[c + 1]):
             for q in range(indptr[i], indptr[i + 1]):
                 a = data[q]
                 j = indices[q]
-                for r in range(k):
-                    Y[i, r] += a * X[j, r]
-    return Y
-
-
-@njit(cache=True, parallel=True)
-def csr_rmatmat(indptr, indices, data, G, ncols, nchunks):  # pragma: no cover
-    """Y = Aᵀ G for A in CSR arrays (ncols columns) and G (nrows, k) C-ordered:
-    :func:`csr_rmatvec` with k right-hand sides."""
-    k = G.shape[1]
-    bounds = _row_chunks(indptr, nchunks)
-    Y = np.zeros((nchunks, ncols, k))
-    for c in prange(nchunks):
-        for i in range(bounds[c], bounds[c + 1]):
-            for q in range(indptr[i], indptr[i + 1]):
-                a = data[q]
-                j = indices[q]
-                for r in range(k):
-                    Y[c, j, r] += a * G[i, r]
-    out = np.zeros((ncols, k))
-    for c in range(nchunks):
-        for j in range(ncols):
+                if transpose:
+                    for r in range(k):
+                        Y[own, j, r] += a * B[i, r]
+                else:
+                    for r in range(k):
+                        Y[own, i, r] += a * B[j, r]
+    for c in range(1, Y.shape[0]):
+        for j in range(Y.shape[1]):
             for r in range(k):
-                out[j, r] += Y[c, j, r]
-    return out
+                Y[0, j, r] += Y[c, j, r]
+    return Y[0]
 
 # ---------------------------------------------------------------- near field
 

@@ -494,7 +494,8 @@ class CompressedOperator(spla.LinearOperator):
     def _near_matmat(self, X):
         import numba
         A = self.near
-        return hk.csr_matmat(A.indptr, A.indices, A.data, X, numba.get_num_threads())
+        return hk.csr_block_product(A.indptr, A.indices, A.data, X, A.shape[1], False,
+                                    numba.get_num_threads())
 
     def _far_matmat(self, X):
         """:meth:`far_matvec` for the columns of X (n, k): column j's two expansions
@@ -509,7 +510,7 @@ class CompressedOperator(spla.LinearOperator):
         nth = numba.get_num_threads()
         leaves = S["leaves"]
         W = np.zeros((len(S["boxes"]), 2 * k, p))
-        MX = hk.csr_matmat(M.indptr, M.indices, M.data, X, nth)     # (leaves·2·p, k)
+        MX = hk.csr_block_product(M.indptr, M.indices, M.data, X, M.shape[1], False, nth)
         W[leaves] = MX.reshape(len(leaves), 2, p, k).transpose(0, 3, 1, 2).reshape(
             len(leaves), 2 * k, p)
         del MX
@@ -523,8 +524,8 @@ class CompressedOperator(spla.LinearOperator):
         out = np.empty((len(leaves), 2, p, k))
         out[:, 0] = (Gl[:, :, 0] + Gl[:, :, 1]).transpose(0, 2, 1)
         out[:, 1] = Gl[:, :, 0].transpose(0, 2, 1)
-        Y = hk.csr_rmatmat(M.indptr, M.indices, M.data, out.reshape(-1, k), M.shape[1],
-                           nth)
+        Y = hk.csr_block_product(M.indptr, M.indices, M.data, out.reshape(-1, k),
+                                 M.shape[1], True, nth)
         return -f["c"] * Y
 
     def _rmatvec(self, x):
