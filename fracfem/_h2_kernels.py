@@ -451,7 +451,6 @@ def csr_rmatvec(indptr, indices, data, g, ncols, nchunks):  # pragma: no cover
     return y
 
 
-
 @njit(cache=True, parallel=True)
 def csr_block_product(indptr, indices, data, B, ncols, transpose,
                       nchunks):  # pragma: no cover
@@ -482,6 +481,7 @@ def csr_block_product(indptr, indices, data, B, ncols, transpose,
             for r in range(k):
                 Y[0, j, r] += Y[c, j, r]
     return Y[0]
+
 
 # ---------------------------------------------------------------- near field
 

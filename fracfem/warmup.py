@@ -7,9 +7,8 @@ first.  :func:`warm_up` runs each path once on tiny meshes (dense assembly on sh
 and anisotropic meshes, the compressed operator, its product with a block of columns and
 its solver, the obstacle and friction solvers and indicators, a space-time adaptive pass)
 so that the cache holds every kernel before timed work starts; it leaves a stamp
-(:func:`stamp`) and ``python -m
-fracfem.warmup`` does nothing while the stamp is there.  The pipeline runs that before its
-first job::
+(:func:`stamp`) and ``python -m fracfem.warmup`` does nothing while the stamp is there.
+The pipeline runs that before its first job::
 
     python -m fracfem.warmup
 """
