@@ -403,21 +403,29 @@ class CompressedOperator(spla.LinearOperator):
         M = self.leaf_matrix
         if M is None:
             return self.far_matvec_reference(x)
+        leaves = self._far["src"]["leaves"]
+        p = self._far["z"].shape[0] ** 2
+        G = self._leaf_expansions(_csr_matvec(M, x).reshape(len(leaves), 2, p))
+        G1 = G[:, 1].copy()
+        G[:, 1] = G[:, 0]
+        G[:, 0] += G1
+        return -self._far["c"] * _csr_rmatvec(M, G.reshape(-1))
+
+    def _leaf_expansions(self, moments: np.ndarray) -> np.ndarray:
+        """The leaf clusters' moments (leaves, nrhs, m²) through the cluster tree: upward,
+        the coupling of the admissible blocks, downward; returns the leaf clusters'
+        expansions, in the same layout (each of the nrhs rows on its own)."""
         f = self._far
-        S, T, z = f["src"], f["tgt"], f["z"]
-        m = z.shape[0]
-        p = m * m
+        S, T, m = f["src"], f["tgt"], f["z"].shape[0]
         leaves = S["leaves"]
-        W = np.zeros((len(S["boxes"]), 2, p))
-        W[leaves] = _csr_matvec(M, x).reshape(len(leaves), 2, p)
+        W = np.zeros((len(S["boxes"]),) + moments.shape[1:])
+        W[leaves] = moments
         hk.upward(W, S["E"], S["level_nodes"], S["level_ptr"], S["child0"], S["child1"], m)
         G = _couple(f, W, None, None)
+        del W
         hk.downward(G, T["E"], T["level_nodes"], T["level_ptr"], T["child0"], T["child1"],
                     m)
-        Gl = G[leaves]
-        Gl[:, 1] = Gl[:, 0]
-        Gl[:, 0] += G[leaves, 1]
-        return -f["c"] * _csr_rmatvec(M, Gl.reshape(-1))
+        return G[leaves]
 
     def far_matvec_reference(self, x: np.ndarray) -> np.ndarray:
         """:meth:`far_matvec` through element sources and the leaf kernels
@@ -502,31 +510,21 @@ class CompressedOperator(spla.LinearOperator):
         are rows 2j, 2j + 1 of the clusters' work arrays."""
         import numba
         M = self.leaf_matrix
-        f = self._far
-        S, T, z = f["src"], f["tgt"], f["z"]
-        m = z.shape[0]
-        p = m * m
+        nl = len(self._far["src"]["leaves"])
+        p = self._far["z"].shape[0] ** 2
         k = X.shape[1]
         nth = numba.get_num_threads()
-        leaves = S["leaves"]
-        W = np.zeros((len(S["boxes"]), 2 * k, p))
         MX = hk.csr_block_product(M.indptr, M.indices, M.data, X, M.shape[1], False, nth)
-        W[leaves] = MX.reshape(len(leaves), 2, p, k).transpose(0, 3, 1, 2).reshape(
-            len(leaves), 2 * k, p)
+        Gl = self._leaf_expansions(
+            MX.reshape(nl, 2, p, k).transpose(0, 3, 1, 2).reshape(nl, 2 * k, p)
+        ).reshape(nl, k, 2, p)
         del MX
-        hk.upward(W, S["E"], S["level_nodes"], S["level_ptr"], S["child0"], S["child1"], m)
-        G = _couple(f, W, None, None)
-        del W
-        hk.downward(G, T["E"], T["level_nodes"], T["level_ptr"], T["child0"], T["child1"],
-                    m)
-        Gl = G[leaves].reshape(len(leaves), k, 2, p)
-        del G
-        out = np.empty((len(leaves), 2, p, k))
+        out = np.empty((nl, 2, p, k))          # (G₀ + G₁, G₀) as in far_matvec
         out[:, 0] = (Gl[:, :, 0] + Gl[:, :, 1]).transpose(0, 2, 1)
         out[:, 1] = Gl[:, :, 0].transpose(0, 2, 1)
         Y = hk.csr_block_product(M.indptr, M.indices, M.data, out.reshape(-1, k),
                                  M.shape[1], True, nth)
-        return -f["c"] * Y
+        return -self._far["c"] * Y
 
     def _rmatvec(self, x):
         return self._matvec(x)
