@@ -231,6 +231,11 @@ def block_tree(ta: dict, tb: dict, eta: float, ratio: float) -> tuple[np.ndarray
 # ---------------------------------------------------------------- κ
 
 KAPPA_RATIO = 13.0   # the exterior kernel's two-point rule holds beyond 12 edge lengths
+# leaves of κ's two trees (benchmarks/kappa.md): small source leaves (Gauss points on ∂Ω)
+# make the blocks admissible closer to ∂Ω, so fewer edges are summed directly; large target
+# leaves (quadrature points, hundreds per element at ∂Ω) make fewer blocks
+KAPPA_SOURCE_LEAF = 12
+KAPPA_TARGET_LEAF = 192
 
 
 def cos_power_series(s: float, degree: int = 24) -> tuple[np.ndarray, np.ndarray]:
@@ -270,15 +275,21 @@ class CompressedKappa:
     (ℓ/2) n·(y − x) |y − x|^(−2−2s).  Those terms are summed by two H² passes,
     one per component of n (kernels (y − x)_d |y − x|^(−2−2s), sources the
     Gauss points with weights (ℓ/2) n_d), every other term directly.
+    ``leaf_size``: Gauss points per leaf of the source tree; ``target_leaf``:
+    points x per leaf of the target tree.
     """
 
     def __init__(self, edges: np.ndarray, s: float, *, order: int, eta: float,
-                 leaf_size: int):
+                 leaf_size: int = KAPPA_SOURCE_LEAF, target_leaf: int = KAPPA_TARGET_LEAF):
         from scipy.special import gamma
 
         from .quadrature import gauss01
+        for name, value in (("leaf_size", leaf_size), ("target_leaf", target_leaf)):
+            if not (isinstance(value, (int, np.integer)) and 1 <= value <= 4096):
+                raise ValueError(f"{name}={value!r} must be an integer in [1, 4096]")
         self.edges = np.ascontiguousarray(edges, dtype=np.float64)
-        self.s, self.order, self.eta, self.leaf_size = float(s), order, eta, leaf_size
+        self.s, self.order, self.eta = float(s), order, eta
+        self.leaf_size, self.target_leaf = int(leaf_size), int(target_leaf)
         a, b = self.edges[:, :2], self.edges[:, 2:]
         g2 = gauss01(2)[0]
         self.points = np.vstack([a + g2[0] * (b - a), a + g2[1] * (b - a)])
@@ -299,7 +310,7 @@ class CompressedKappa:
     def __call__(self, x: np.ndarray) -> np.ndarray:
         x = np.ascontiguousarray(x, dtype=np.float64)
         root = square_around(x, self.points)
-        tt = cluster_tree(x, np.zeros(len(x)), self.leaf_size, root)
+        tt = cluster_tree(x, np.zeros(len(x)), self.target_leaf, root)
         ts = cluster_tree(self.points, self.ln, self.leaf_size, root)
         far, near = block_tree(tt, ts, self.eta, KAPPA_RATIO)
         out = far_values(tt, ts, far, x, self.points, self.order, -1.0 - self.s, self.src,
@@ -931,8 +942,7 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     # κ comes from the far field alone away from ∂Ω, undiluted by the near
     # field: stricter admissibility and one more order (measured: relative
     # error ≤ 1e-8 at order 7 with eta 0.5, ≤ 1e-9 at order 8)
-    kappa = CompressedKappa(edges, s, order=min(m + 1, 14), eta=0.5 * eta,
-                            leaf_size=leaf_size)
+    kappa = CompressedKappa(edges, s, order=min(m + 1, 14), eta=0.5 * eta)
     Kloc = _kappa_local(p, t, bnodes, edges, s, quad, geometry, kappa=kappa)
     hk.scatter_csr(indptr, indices, data, t, Kloc, c)
     tim["exterior"] = time.perf_counter() - t5

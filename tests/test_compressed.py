@@ -129,14 +129,27 @@ def test_compressed_kappa_matches_exterior_kernel(s):
     from fracfem.compressed import CompressedKappa
 
     p, t = mesh_arrays(disk_uniform(5))
-    edges, _ = _boundary_edges(p, t)
-    x = p[t].mean(axis=1)
+    edges, bnodes = _boundary_edges(p, t)
+    # centroids, and points of the elements at ∂Ω, where most edges are summed directly
+    at = np.isin(t, bnodes).any(axis=1)
+    x = np.vstack([p[t].mean(axis=1), 0.9 * p[t[at]].mean(axis=1) + 0.1 * p[t[at, 0]]])
     exact = exterior_kernel(x, edges, s)
-    errs = []
-    for order in (5, 8):
-        kappa = CompressedKappa(edges, s, order=order, eta=0.5, leaf_size=16)
-        errs.append(np.max(np.abs(kappa(x) - exact) / exact))
-    assert errs[1] <= 1e-8 and errs[0] > 10 * errs[1]
+    for leaves in ({"leaf_size": 16, "target_leaf": 16}, {}):   # {}: the operator's leaves
+        errs = []
+        for order in (5, 8):
+            kappa = CompressedKappa(edges, s, order=order, eta=0.5, **leaves)
+            errs.append(np.max(np.abs(kappa(x) - exact) / exact))
+        assert errs[1] <= 1e-8 and errs[0] > 10 * errs[1], (leaves, errs)
+
+
+@pytest.mark.parametrize("name, value", [("leaf_size", 0), ("target_leaf", 5000),
+                                         ("target_leaf", 2.5)])
+def test_compressed_kappa_refuses_bad_leaves(name, value):
+    from fracfem.compressed import CompressedKappa
+
+    edges = np.array([[0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 0.0]])
+    with pytest.raises(ValueError, match=rf"{name}={value!r} must be an integer in \[1, 4096\]"):
+        CompressedKappa(edges, 0.5, order=8, eta=0.5, **{name: value})
 
 
 def test_obstacle_dg0_steps_with_compressed_operator_match_dense():

@@ -553,6 +553,16 @@ GROUPS = [
                           "|products column by column|",
         "product_speedup": "before_s / product_s",
     }),
+    ("The exterior term κ: leaves of its trees (`benchmarks/kappa.md`)", False, {
+        "boundary_edges": "edges of the mesh on ∂Ω (κ's sources: two Gauss points each)",
+        "source_leaf": "Gauss points per leaf of κ's source tree "
+                       "(CompressedKappa's leaf_size)",
+        "target_leaf": "points per leaf of κ's target tree (CompressedKappa's target_leaf)",
+        "exterior_s": "seconds of the exterior part of the assembly (∫_T φ_a φ_b κ of every "
+                      "element) with κ from those trees",
+        "max_rel_err": "largest |κ − direct sum| / direct sum over a random sample of its "
+                       "points (fracfem.assembly.exterior_kernel)",
+    }),
     ("Where the Taylor rule starts (`benchmarks/taylor-threshold.md`)", False, {
         "diam_min": "smallest triangle diameter of the mesh",
         "near_nnz_R8": "node pairs of the compressed operator's near field with the Taylor "
