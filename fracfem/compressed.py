@@ -231,11 +231,23 @@ def block_tree(ta: dict, tb: dict, eta: float, ratio: float) -> tuple[np.ndarray
 # ---------------------------------------------------------------- κ
 
 KAPPA_RATIO = 13.0   # the exterior kernel's two-point rule holds beyond 12 edge lengths
-# leaves of κ's two trees (benchmarks/kappa.md): small source leaves (Gauss points on ∂Ω)
-# make the blocks admissible closer to ∂Ω, so fewer edges are summed directly; large target
-# leaves (quadrature points, hundreds per element at ∂Ω) make fewer blocks
+# leaves of κ's two trees (benchmarks/kappa.md), apart from the operator's: small source
+# leaves (Gauss points on ∂Ω) make blocks admissible closer to ∂Ω, so fewer edges are summed
+# directly; large target leaves make fewer blocks where the points are dense (the
+# assembly's: hundreds per element at ∂Ω), though larger target boxes sum more directly
 KAPPA_SOURCE_LEAF = 12
 KAPPA_TARGET_LEAF = 192
+
+
+def operator_kappa(edges: np.ndarray, s: float, order: int, eta: float, *,
+                   source_leaf: int = KAPPA_SOURCE_LEAF,
+                   target_leaf: int = KAPPA_TARGET_LEAF) -> "CompressedKappa":
+    """κ as :func:`stiffness_operator` evaluates it for the exterior term, given the
+    operator's Chebyshev ``order`` and ``eta``: κ comes from the far field alone away from
+    ∂Ω, undiluted by the near field, so it takes one more order and half the eta (measured:
+    relative error ≤ 1e-8 at order 7 with eta 0.5, ≤ 1e-9 at order 8)."""
+    return CompressedKappa(edges, s, order=min(order + 1, 14), eta=0.5 * eta,
+                           source_leaf=source_leaf, target_leaf=target_leaf)
 
 
 def cos_power_series(s: float, degree: int = 24) -> tuple[np.ndarray, np.ndarray]:
@@ -275,21 +287,22 @@ class CompressedKappa:
     (ℓ/2) n·(y − x) |y − x|^(−2−2s).  Those terms are summed by two H² passes,
     one per component of n (kernels (y − x)_d |y − x|^(−2−2s), sources the
     Gauss points with weights (ℓ/2) n_d), every other term directly.
-    ``leaf_size``: Gauss points per leaf of the source tree; ``target_leaf``:
+    ``source_leaf``: Gauss points per leaf of the source tree; ``target_leaf``:
     points x per leaf of the target tree.
     """
 
     def __init__(self, edges: np.ndarray, s: float, *, order: int, eta: float,
-                 leaf_size: int = KAPPA_SOURCE_LEAF, target_leaf: int = KAPPA_TARGET_LEAF):
+                 source_leaf: int = KAPPA_SOURCE_LEAF, target_leaf: int = KAPPA_TARGET_LEAF):
         from scipy.special import gamma
 
         from .quadrature import gauss01
-        for name, value in (("leaf_size", leaf_size), ("target_leaf", target_leaf)):
-            if not (isinstance(value, (int, np.integer)) and 1 <= value <= 4096):
+        for name, value in (("source_leaf", source_leaf), ("target_leaf", target_leaf)):
+            if not (isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+                    and 1 <= value <= 4096):
                 raise ValueError(f"{name}={value!r} must be an integer in [1, 4096]")
         self.edges = np.ascontiguousarray(edges, dtype=np.float64)
         self.s, self.order, self.eta = float(s), order, eta
-        self.leaf_size, self.target_leaf = int(leaf_size), int(target_leaf)
+        self.source_leaf, self.target_leaf = int(source_leaf), int(target_leaf)
         a, b = self.edges[:, :2], self.edges[:, 2:]
         g2 = gauss01(2)[0]
         self.points = np.vstack([a + g2[0] * (b - a), a + g2[1] * (b - a)])
@@ -311,7 +324,7 @@ class CompressedKappa:
         x = np.ascontiguousarray(x, dtype=np.float64)
         root = square_around(x, self.points)
         tt = cluster_tree(x, np.zeros(len(x)), self.target_leaf, root)
-        ts = cluster_tree(self.points, self.ln, self.leaf_size, root)
+        ts = cluster_tree(self.points, self.ln, self.source_leaf, root)
         far, near = block_tree(tt, ts, self.eta, KAPPA_RATIO)
         out = far_values(tt, ts, far, x, self.points, self.order, -1.0 - self.s, self.src,
                          comps=(0, 1))[:, 0] / (2.0 * self.s)
@@ -854,7 +867,8 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     tol : relative accuracy of the far-field interpolation, in [1e-14, 1)
     quadrature : the rules of the dense assembly it reproduces
     eta : admissibility max(diam) ≤ eta·dist, in (0, 4]
-    leaf_size : elements per leaf cluster, in [4, 512]
+    leaf_size : elements per leaf cluster, in [4, 512] (the exterior term's κ
+        has trees of its own: :func:`operator_kappa`)
     order : Chebyshev points per direction (overrides ``tol``), in [2, 14]
     leaf_matrices : hold the sparse matrix from free-node values to leaf
         moments (:func:`leaf_matrix`, about a fifth more memory) so that a
@@ -939,10 +953,7 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
 
     t5 = time.perf_counter()
     edges, bnodes = _boundary_edges(p, t)
-    # κ comes from the far field alone away from ∂Ω, undiluted by the near
-    # field: stricter admissibility and one more order (measured: relative
-    # error ≤ 1e-8 at order 7 with eta 0.5, ≤ 1e-9 at order 8)
-    kappa = CompressedKappa(edges, s, order=min(m + 1, 14), eta=0.5 * eta)
+    kappa = operator_kappa(edges, s, m, eta)
     Kloc = _kappa_local(p, t, bnodes, edges, s, quad, geometry, kappa=kappa)
     hk.scatter_csr(indptr, indices, data, t, Kloc, c)
     tim["exterior"] = time.perf_counter() - t5
@@ -955,7 +966,8 @@ def stiffness_operator(mesh, s: float, *, tol: float = DEFAULT_TOL,
     M = leaf_matrix(fdata, t, free, nv) if leaf_matrices else None
     tim["leaf_matrix"] = time.perf_counter() - t6
     tim["total"] = time.perf_counter() - t0
-    info = dict(order=m, tol=tol, eta=eta, leaf_size=leaf_size, clusters=len(tree["start"]),
+    info = dict(order=m, tol=tol, eta=eta, leaf_size=leaf_size,
+                kappa_leaves=(kappa.source_leaf, kappa.target_leaf), clusters=len(tree["start"]),
                 far_blocks=len(far), coupling_matrices=len(fdata["K"]), near_blocks=len(near),
                 near_nnz=Af.nnz, leaf_matrix_nnz=0 if M is None else M.nnz, timings=tim)
     log.info("compressed operator: %d free nodes, %d far / %d near blocks, order %d, "

@@ -124,32 +124,67 @@ def test_discretise_operator_choice(monkeypatch):
 
 
 @pytest.mark.parametrize("s", [0.1, 0.9])
-def test_compressed_kappa_matches_exterior_kernel(s):
+def test_compressed_kappa_matches_exterior_kernel(s, monkeypatch):
+    from fracfem import compressed
     from fracfem.assembly import _boundary_edges, exterior_kernel, mesh_arrays
     from fracfem.compressed import CompressedKappa
 
     p, t = mesh_arrays(disk_uniform(5))
-    edges, bnodes = _boundary_edges(p, t)
-    # centroids, and points of the elements at ∂Ω, where most edges are summed directly
-    at = np.isin(t, bnodes).any(axis=1)
-    x = np.vstack([p[t].mean(axis=1), 0.9 * p[t[at]].mean(axis=1) + 0.1 * p[t[at, 0]]])
+    edges, _ = _boundary_edges(p, t)
+    # centroids, and points at 1e-6 … 0.3 edge lengths inside ∂Ω along the inward
+    # normals of the edges' midpoints and quarter points, as the graded rules put them
+    a, b = edges[:, :2], edges[:, 2:]
+    ln = np.linalg.norm(b - a, axis=1)
+    inward = np.column_stack([a[:, 1] - b[:, 1], b[:, 0] - a[:, 0]]) / ln[:, None]
+    close = [a + w * (b - a) + (d * ln)[:, None] * inward
+             for w in (0.25, 0.5) for d in (1e-6, 1e-3, 0.05, 0.3)]
+    x = np.vstack([p[t].mean(axis=1), *close])
     exact = exterior_kernel(x, edges, s)
-    for leaves in ({"leaf_size": 16, "target_leaf": 16}, {}):   # {}: the operator's leaves
+    leaf_sizes = []
+    tree = compressed.cluster_tree
+    monkeypatch.setattr(compressed, "cluster_tree",
+                        lambda c, d, leaf, *r: leaf_sizes.append((len(c), leaf)) or
+                        tree(c, d, leaf, *r))
+    for leaves in ({"source_leaf": 16, "target_leaf": 16}, {}):   # {}: the operator's
         errs = []
         for order in (5, 8):
             kappa = CompressedKappa(edges, s, order=order, eta=0.5, **leaves)
             errs.append(np.max(np.abs(kappa(x) - exact) / exact))
         assert errs[1] <= 1e-8 and errs[0] > 10 * errs[1], (leaves, errs)
+    # each tree with its own leaves: the points', then the edges' Gauss points'
+    n, m = len(x), 2 * len(edges)
+    assert leaf_sizes == [(n, 16), (m, 16)] * 2 + [
+        (n, compressed.KAPPA_TARGET_LEAF), (m, compressed.KAPPA_SOURCE_LEAF)] * 2
 
 
-@pytest.mark.parametrize("name, value", [("leaf_size", 0), ("target_leaf", 5000),
-                                         ("target_leaf", 2.5)])
+@pytest.mark.parametrize("name, value", [("source_leaf", 0), ("target_leaf", 5000),
+                                         ("target_leaf", 2.5), ("source_leaf", True)])
 def test_compressed_kappa_refuses_bad_leaves(name, value):
     from fracfem.compressed import CompressedKappa
 
     edges = np.array([[0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 0.0]])
     with pytest.raises(ValueError, match=rf"{name}={value!r} must be an integer in \[1, 4096\]"):
         CompressedKappa(edges, 0.5, order=8, eta=0.5, **{name: value})
+
+
+def test_operator_kappa_is_the_operators_exterior_term(monkeypatch):
+    """stiffness_operator's κ is operator_kappa's: the same trees, order and admissibility."""
+    from fracfem import compressed
+
+    made = []
+    real = compressed.CompressedKappa
+
+    class Recording(real):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    monkeypatch.setattr(compressed, "CompressedKappa", Recording)
+    op = compressed.stiffness_operator(disk_uniform(3), 0.5, tol=1e-6, eta=0.8)
+    (k,) = made
+    assert (k.order, k.eta) == (compressed.chebyshev_order(1e-6) + 1, 0.4)
+    assert (k.source_leaf, k.target_leaf) == op.info["kappa_leaves"] == (
+        compressed.KAPPA_SOURCE_LEAF, compressed.KAPPA_TARGET_LEAF)
 
 
 def test_obstacle_dg0_steps_with_compressed_operator_match_dense():
