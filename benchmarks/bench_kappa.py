@@ -10,16 +10,17 @@ B's meshes for Example 1 are, ``disk_graded(h)``, and ``disk_graded_aniso(h)``,
 thin at ∂Ω) most points lie near ∂Ω and hundreds lie in each element there.
 
 For each mesh and each pair of leaf sizes (source × target, ``--leaves``):
-``exterior_s``, the seconds of the whole exterior part with that κ (at the
+``exterior_min_s``, the least seconds of the whole exterior part with that κ (at the
 operator's order and admissibility: the default tolerance), and
 ``max_rel_err``, the largest relative difference from the direct sum
 :func:`fracfem.assembly.exterior_kernel` over ``--sample`` of its points.
 
     python benchmarks/bench_kappa.py --md benchmarks/kappa.md
 
-Each mesh runs after compiling every kernel on a small mesh; the settings run
-in the order given, the first one again at the end (``repeat of the first``),
-so that a drift of the machine's speed shows; the load average is recorded.
+Each mesh runs after compiling every kernel on a small mesh; each setting runs
+``--repeat`` times, the settings in turn, so that a drift of the machine's speed
+reaches all of them alike: ``exterior_min_s`` is the least of its runs,
+``exterior_max_s`` the most; the load average is recorded.
 """
 from __future__ import annotations
 
@@ -36,7 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _tables import markdown, write  # noqa: E402
 
 COLUMNS = ["mesh", "s", "dofs", "triangles", "boundary_edges", "points", "source_leaf",
-           "target_leaf", "exterior_s", "max_rel_err", "load"]
+           "target_leaf", "exterior_min_s", "exterior_max_s", "max_rel_err", "load"]
 
 
 def boundary_refined(steps: int, closeness: float = 1.5):
@@ -76,7 +77,7 @@ class _Kept:
         return self.values[-1]
 
 
-def measure(name, mesh, s, settings, sample, rng) -> list[dict]:
+def measure(name, mesh, s, settings, sample, repeat, rng) -> list[dict]:
     from fracfem import compressed
     from fracfem.assembly import (QuadratureOptions, _boundary_edges, _element_geometry,
                                   _kappa_local, exterior_kernel, mesh_arrays)
@@ -95,23 +96,26 @@ def measure(name, mesh, s, settings, sample, rng) -> list[dict]:
     x = np.vstack(points)
     idx = rng.choice(len(x), min(sample, len(x)), replace=False)
     exact = exterior_kernel(x[idx], edges, s)
-    rows = []
-    for k, (a, b) in enumerate(list(settings) + [settings[0]]):
-        kappa = _Kept(compressed.operator_kappa(
-            edges, s, compressed.chebyshev_order(compressed.DEFAULT_TOL),
-            compressed.DEFAULT_ETA, source_leaf=a, target_leaf=b))
-        load = os.getloadavg()[0]
-        t0 = time.perf_counter()
-        _kappa_local(p, t, bnodes, edges, s, quad, geometry, kappa=kappa)
-        sec = time.perf_counter() - t0
-        # the values the timed part used (its calls come in the order recorded above)
-        err = float(np.max(np.abs(np.concatenate(kappa.values)[idx] - exact) / exact))
-        rows.append(dict(mesh=name + (" (repeat of the first)" if k == len(settings) else ""),
-                         s=s, dofs=len(mesh.interior_nodes()), triangles=len(t),
-                         boundary_edges=len(edges), points=len(x), source_leaf=a,
-                         target_leaf=b, exterior_s=sec, max_rel_err=err,
-                         load=f"{load:.1f}-{os.getloadavg()[0]:.1f}"))
-        print(rows[-1], flush=True)
+    rows = [dict(mesh=name, s=s, dofs=len(mesh.interior_nodes()), triangles=len(t),
+                 boundary_edges=len(edges), points=len(x), source_leaf=a, target_leaf=b,
+                 runs=[], load0=os.getloadavg()[0]) for a, b in settings]
+    for _ in range(repeat):                  # round robin: a drift of the machine's
+        for row in rows:                     # speed reaches every setting alike
+            kappa = _Kept(compressed.operator_kappa(
+                edges, s, compressed.chebyshev_order(compressed.DEFAULT_TOL),
+                compressed.DEFAULT_ETA, source_leaf=row["source_leaf"],
+                target_leaf=row["target_leaf"]))
+            t0 = time.perf_counter()
+            _kappa_local(p, t, bnodes, edges, s, quad, geometry, kappa=kappa)
+            row["runs"].append(time.perf_counter() - t0)
+            # the values the timed part used (its calls come in the order recorded above)
+            row["max_rel_err"] = float(np.max(np.abs(np.concatenate(kappa.values)[idx]
+                                                     - exact) / exact))
+    for row in rows:
+        runs = row.pop("runs")
+        row.update(exterior_min_s=min(runs), exterior_max_s=max(runs),
+                   load=f"{row.pop('load0'):.1f}-{os.getloadavg()[0]:.1f}")
+        print(row, flush=True)
     return rows
 
 
@@ -135,9 +139,11 @@ def main(argv=None):
     ap.add_argument("--s", type=float, default=0.5)
     ap.add_argument("--leaves", type=_leaves, nargs="+",
                     default=[(24, 24), (12, 24), (24, 192), (12, 192)],
-                    help="source x target leaf sizes; the first is repeated at the end")
+                    help="source x target leaf sizes")
     ap.add_argument("--sample", type=int, default=20000,
                     help="points compared with the direct sum")
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="timed runs of each setting, in turn")
     ap.add_argument("--csv", type=Path, default=None)
     ap.add_argument("--md", type=Path, default=None)
     args = ap.parse_args(argv)
@@ -146,6 +152,8 @@ def main(argv=None):
     for level in args.uniform:
         if not 1 <= level <= 8:
             raise SystemExit(f"--uniform {level} must lie in [1, 8]")
+    if args.repeat < 1:
+        raise SystemExit(f"--repeat={args.repeat} must be a positive count")
     if args.sample < 1:
         raise SystemExit(f"--sample={args.sample} must be a positive count")
     for k in args.refined:
@@ -170,7 +178,7 @@ def main(argv=None):
     meshes += [(f"disk_uniform({L})", lambda L=L: ff.disk_uniform(L)) for L in args.uniform]
     rows = []
     for name, make in meshes:
-        rows += measure(name, make(), args.s, args.leaves, args.sample, rng)
+        rows += measure(name, make(), args.s, args.leaves, args.sample, args.repeat, rng)
     table = markdown(rows, COLUMNS, _cell)
     cmd = ("python benchmarks/bench_kappa.py"
            + f" --refined {' '.join(map(str, args.refined))}"
@@ -178,14 +186,15 @@ def main(argv=None):
            + (f" --aniso {' '.join(f'{h:g}' for h in args.aniso)}" if args.aniso else "")
            + (f" --uniform {' '.join(map(str, args.uniform))}" if args.uniform else "")
            + f" --s {args.s:g} --leaves {' '.join(f'{a}x{b}' for a, b in args.leaves)}"
-           + f" --sample {args.sample}")
+           + f" --sample {args.sample} --repeat {args.repeat}")
     if args.md:
         head = (f"# The exterior term κ: leaves of its trees\n\n`{cmd}`: "
                 f"{os.cpu_count()} cores, {numba.get_num_threads()} numba threads, "
                 f"{datetime.date.today()}.\n\n"
                 "The operator's defaults: source leaf "
                 f"{compressed.KAPPA_SOURCE_LEAF}, target leaf {compressed.KAPPA_TARGET_LEAF}. "
-                "exterior_s: seconds of the exterior part of the assembly with that κ; "
+                f"exterior_min_s, exterior_max_s: least and most seconds of {args.repeat} runs "
+                "of the exterior part of the assembly with that κ (the settings in turn); "
                 "max_rel_err: largest |κ − direct sum| / direct sum over a random sample "
                 f"of at most {args.sample} of κ's values in the timed part; points: κ's "
                 "points in the part; "
