@@ -989,6 +989,26 @@ def test_committed_checkpoints_older_keys_match_their_references():
     assert not para_adaptive.same_run(made("ex4-u1"), reference)
 
 
+def test_committed_example5_checkpoint_key_is_a_fingerprint_of_its_reference():
+    """Example 5's committed checkpoint holds the current key: run_fingerprint records of
+    the reference and of the family's three coarser runs; its reference is the committed
+    one up to round-off, and its passes stop before the tier's limits (pass 10 next)."""
+    para_adaptive = script("para_adaptive")
+    root = Path(__file__).parents[1] / "workflow" / "data"
+    with np.load(root / "checkpoints" / "paper-scale" / "ex5-adaptive.npz",
+                 allow_pickle=False) as d:
+        key = json.loads(str(d["checkpoint_key"]))
+        nxt = int(d["checkpoint_iteration"])
+    assert isinstance(key["ref"], dict) and len(key["coarser"]) == 3
+    assert all(isinstance(c, dict) and c["arrays"] for c in key["coarser"])
+    reference = para_adaptive.run_fingerprint(root / "reference" / "paper-scale"
+                                              / "ex5-parabolic.npz")
+    assert para_adaptive.same_run(key["ref"], reference)
+    assert not para_adaptive.same_run(key["ref"], para_adaptive.run_fingerprint(
+        root / "reference" / "paper-scale" / "ex4-u1-parabolic.npz"))
+    assert nxt == 10
+
+
 def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeypatch):
     """A checkpoint kept in the repository (keep_checkpoint: deflated, same slabs and
     records; an earlier one does not replace it) is where a job without one of its own
