@@ -15,7 +15,11 @@ operator's order and admissibility: the default tolerance), and
 ``max_rel_err``, the largest relative difference from the direct sum
 :func:`fracfem.assembly.exterior_kernel` over ``--sample`` of its points.
 
-    python benchmarks/bench_kappa.py --md benchmarks/kappa.md
+    NUMBA_NUM_THREADS=1 python benchmarks/bench_kappa.py --md benchmarks/kappa.md \
+        --csv benchmarks/kappa.csv
+
+(one numba thread, as the default tier runs its jobs; the defaults are the committed
+table's meshes and leaves).
 
 Each mesh runs after compiling every kernel on a small mesh; each setting runs
 ``--repeat`` times, the settings in turn, so that a drift of the machine's speed
@@ -128,17 +132,17 @@ def _cell(v, col):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--refined", type=int, nargs="*", default=[7, 8],
+    ap.add_argument("--refined", type=int, nargs="*", default=[4, 6, 8],
                     help="steps k of boundary_refined(k)")
     ap.add_argument("--graded", type=float, nargs="*", default=[],
                     help="mesh sizes h of disk_graded(h) (shape-regular)")
     ap.add_argument("--aniso", type=float, nargs="*", default=[0.0127],
                     help="mesh sizes h of disk_graded_aniso(h) (thin triangles at ∂Ω)")
-    ap.add_argument("--uniform", type=int, nargs="*", default=[],
+    ap.add_argument("--uniform", type=int, nargs="*", default=[6, 7],
                     help="levels of disk_uniform(level)")
     ap.add_argument("--s", type=float, default=0.5)
     ap.add_argument("--leaves", type=_leaves, nargs="+",
-                    default=[(24, 24), (12, 24), (24, 192), (12, 192)],
+                    default=[(24, 24), (12, 96), (12, 192)],
                     help="source x target leaf sizes")
     ap.add_argument("--sample", type=int, default=20000,
                     help="points compared with the direct sum")
