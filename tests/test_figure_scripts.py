@@ -992,7 +992,7 @@ def test_committed_checkpoints_older_keys_match_their_references():
 def test_committed_example5_checkpoint_key_is_a_fingerprint_of_its_reference():
     """Example 5's committed checkpoint holds the current key: run_fingerprint records of
     the reference and of the family's three coarser runs; its reference is the committed
-    one up to round-off, and its passes stop before the tier's limits (pass 10 next)."""
+    one up to round-off (not Example 4's), and pass 10 is the next."""
     para_adaptive = script("para_adaptive")
     root = Path(__file__).parents[1] / "workflow" / "data"
     with np.load(root / "checkpoints" / "paper-scale" / "ex5-adaptive.npz",
