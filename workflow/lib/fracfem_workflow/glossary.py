@@ -556,7 +556,7 @@ GROUPS = [
     ("The exterior term κ: leaves of its trees (`benchmarks/kappa.md`)", False, {
         "boundary_edges": "edges of the mesh on ∂Ω (κ's sources: two Gauss points each)",
         "source_leaf": "Gauss points per leaf of κ's source tree "
-                       "(CompressedKappa's leaf_size)",
+                       "(CompressedKappa's source_leaf)",
         "target_leaf": "points per leaf of κ's target tree (CompressedKappa's target_leaf)",
         "exterior_min_s": "least seconds, over the benchmark's runs, of the exterior part "
                           "of the assembly (∫_T φ_a φ_b κ of every element) with κ from "
