@@ -191,21 +191,18 @@ def main(argv=None):
            + (f" --uniform {' '.join(map(str, args.uniform))}" if args.uniform else "")
            + f" --s {args.s:g} --leaves {' '.join(f'{a}x{b}' for a, b in args.leaves)}"
            + f" --sample {args.sample} --repeat {args.repeat}")
-    if args.md:
-        head = (f"# The exterior term κ: leaves of its trees\n\n`{cmd}`: "
-                f"{os.cpu_count()} cores, {numba.get_num_threads()} numba threads, "
-                f"{datetime.date.today()}.\n\n"
-                "The operator's defaults: source leaf "
-                f"{compressed.KAPPA_SOURCE_LEAF}, target leaf {compressed.KAPPA_TARGET_LEAF}. "
-                f"exterior_min_s, exterior_max_s: least and most seconds of {args.repeat} runs "
-                "of the exterior part of the assembly with that κ (the settings in turn); "
-                "max_rel_err: largest |κ − direct sum| / direct sum over a random sample "
-                f"of at most {args.sample} of κ's values in the timed part; points: κ's "
-                "points in the part; "
-                "load: 1-minute load average before-after.\n\n")
-        args.md.write_text(head + table)
-        args.md = None
-    write(rows, COLUMNS, table, args.csv, args.md)
+    head = (f"# The exterior term κ: leaves of its trees\n\n`{cmd}`: "
+            f"{os.cpu_count()} cores, {numba.get_num_threads()} numba threads, "
+            f"{datetime.date.today()}.\n\n"
+            "The operator's defaults: source leaf "
+            f"{compressed.KAPPA_SOURCE_LEAF}, target leaf {compressed.KAPPA_TARGET_LEAF}. "
+            f"exterior_min_s, exterior_max_s: least and most seconds of {args.repeat} runs "
+            "of the exterior part of the assembly with that κ (the settings in turn); "
+            "max_rel_err: largest |κ − direct sum| / direct sum over a random sample "
+            f"of at most {args.sample} of κ's values in the timed part; points: κ's "
+            "points in the part; "
+            "load: 1-minute load average before-after.\n\n")
+    write(rows, COLUMNS, head + table, args.csv, args.md)
     print(table)
 
 

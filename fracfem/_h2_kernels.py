@@ -462,7 +462,9 @@ def csr_block_product(indptr, indices, data, B, ncols, transpose,
     k = B.shape[1]
     n = indptr.shape[0] - 1
     bounds = _row_chunks(indptr, nchunks)
-    per_thread = 1 if transpose else 0          # Aᵀ B: each thread its own sums
+    # Aᵀ B: each thread its own sums; a factor, as numba's parallel loop does not type
+    # ``c if transpose else 0`` as an index (measured: TypingError)
+    per_thread = 1 if transpose else 0
     Y = np.zeros((nchunks if transpose else 1, ncols if transpose else n, k))
     for c in prange(nchunks):
         own = c * per_thread
