@@ -972,9 +972,9 @@ def test_a_run_at_another_thread_count_is_the_same_run(tmp_path):
 
 
 def test_committed_checkpoints_older_keys_match_their_references():
-    """The paper-scale tier's committed checkpoints hold the older key (the SHA-256 of the
-    reference's bits): Example 4 (u₀ = 2)'s matches run_fingerprint of its committed
-    reference, Example 4 (u₀ = 1)'s does not."""
+    """Example 4 (u₀ = 2)'s committed checkpoint holds the older key (the SHA-256 of the
+    reference's bits), which matches run_fingerprint of its committed reference and not
+    Example 4 (u₀ = 1)'s."""
     para_adaptive = script("para_adaptive")
     root = Path(__file__).parents[1] / "workflow" / "data"
 
@@ -986,27 +986,31 @@ def test_committed_checkpoints_older_keys_match_their_references():
     reference = para_adaptive.run_fingerprint(root / "reference" / "paper-scale"
                                               / "ex4-u2-parabolic.npz")
     assert isinstance(made("ex4-u2"), str) and para_adaptive.same_run(made("ex4-u2"), reference)
-    assert not para_adaptive.same_run(made("ex4-u1"), reference)
+    assert not para_adaptive.same_run(made("ex4-u2"), para_adaptive.run_fingerprint(
+        root / "reference" / "paper-scale" / "ex4-u1-parabolic.npz"))
 
 
-def test_committed_example5_checkpoint_key_is_a_fingerprint_of_its_reference():
-    """Example 5's committed checkpoint holds the current key: run_fingerprint records of
-    the reference and of the family's three coarser runs; its reference is the committed
-    one up to round-off (not Example 4's), and pass 10 is the next."""
+@pytest.mark.parametrize("problem, other, next_pass",
+                         [("ex5", "ex4-u1", 10), ("ex4-u1", "ex5", 9)])
+def test_committed_checkpoint_key_is_a_fingerprint_of_its_reference(problem, other, next_pass):
+    """The committed checkpoints of Example 5 and Example 4 (u₀ = 1) hold the current key:
+    run_fingerprint records of the reference and of the family's three coarser runs; the
+    reference is the problem's committed one up to round-off (not the other problem's),
+    and the next pass is the one they were kept before."""
     para_adaptive = script("para_adaptive")
     root = Path(__file__).parents[1] / "workflow" / "data"
-    with np.load(root / "checkpoints" / "paper-scale" / "ex5-adaptive.npz",
+    with np.load(root / "checkpoints" / "paper-scale" / f"{problem}-adaptive.npz",
                  allow_pickle=False) as d:
         key = json.loads(str(d["checkpoint_key"]))
         nxt = int(d["checkpoint_iteration"])
     assert isinstance(key["ref"], dict) and len(key["coarser"]) == 3
     assert all(isinstance(c, dict) and c["arrays"] for c in key["coarser"])
     reference = para_adaptive.run_fingerprint(root / "reference" / "paper-scale"
-                                              / "ex5-parabolic.npz")
+                                              / f"{problem}-parabolic.npz")
     assert para_adaptive.same_run(key["ref"], reference)
     assert not para_adaptive.same_run(key["ref"], para_adaptive.run_fingerprint(
-        root / "reference" / "paper-scale" / "ex4-u1-parabolic.npz"))
-    assert nxt == 10
+        root / "reference" / "paper-scale" / f"{other}-parabolic.npz"))
+    assert nxt == next_pass
 
 
 def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeypatch):
