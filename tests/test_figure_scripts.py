@@ -971,23 +971,31 @@ def test_a_run_at_another_thread_count_is_the_same_run(tmp_path):
                 np.testing.assert_array_equal(a[k], b[k])
 
 
+WORKFLOW_DATA = Path(__file__).parents[1] / "workflow" / "data"
+
+
+def _committed_checkpoint(problem):
+    """The key and next pass of the paper-scale tier's committed checkpoint of a problem."""
+    path = WORKFLOW_DATA / "checkpoints" / "paper-scale" / f"{problem}-adaptive.npz"
+    with np.load(path, allow_pickle=False) as d:
+        return json.loads(str(d["checkpoint_key"])), int(d["checkpoint_iteration"])
+
+
+def _committed_reference(para_adaptive, problem):
+    """run_fingerprint of the paper-scale tier's committed reference of a problem."""
+    return para_adaptive.run_fingerprint(WORKFLOW_DATA / "reference" / "paper-scale"
+                                         / f"{problem}-parabolic.npz")
+
+
 def test_committed_checkpoints_older_keys_match_their_references():
     """Example 4 (u₀ = 2)'s committed checkpoint holds the older key (the SHA-256 of the
     reference's bits), which matches run_fingerprint of its committed reference and not
     Example 4 (u₀ = 1)'s."""
     para_adaptive = script("para_adaptive")
-    root = Path(__file__).parents[1] / "workflow" / "data"
-
-    def made(problem):
-        path = root / "checkpoints" / "paper-scale" / f"{problem}-adaptive.npz"
-        with np.load(path, allow_pickle=False) as d:
-            return json.loads(str(d["checkpoint_key"]))["ref"]
-
-    reference = para_adaptive.run_fingerprint(root / "reference" / "paper-scale"
-                                              / "ex4-u2-parabolic.npz")
-    assert isinstance(made("ex4-u2"), str) and para_adaptive.same_run(made("ex4-u2"), reference)
-    assert not para_adaptive.same_run(made("ex4-u2"), para_adaptive.run_fingerprint(
-        root / "reference" / "paper-scale" / "ex4-u1-parabolic.npz"))
+    made = _committed_checkpoint("ex4-u2")[0]["ref"]
+    assert isinstance(made, str)
+    assert para_adaptive.same_run(made, _committed_reference(para_adaptive, "ex4-u2"))
+    assert not para_adaptive.same_run(made, _committed_reference(para_adaptive, "ex4-u1"))
 
 
 @pytest.mark.parametrize("problem, other, next_pass",
@@ -998,18 +1006,11 @@ def test_committed_checkpoint_key_is_a_fingerprint_of_its_reference(problem, oth
     reference is the problem's committed one up to round-off (not the other problem's),
     and the next pass is the one they were kept before."""
     para_adaptive = script("para_adaptive")
-    root = Path(__file__).parents[1] / "workflow" / "data"
-    with np.load(root / "checkpoints" / "paper-scale" / f"{problem}-adaptive.npz",
-                 allow_pickle=False) as d:
-        key = json.loads(str(d["checkpoint_key"]))
-        nxt = int(d["checkpoint_iteration"])
+    key, nxt = _committed_checkpoint(problem)
     assert isinstance(key["ref"], dict) and len(key["coarser"]) == 3
     assert all(isinstance(c, dict) and c["arrays"] for c in key["coarser"])
-    reference = para_adaptive.run_fingerprint(root / "reference" / "paper-scale"
-                                              / f"{problem}-parabolic.npz")
-    assert para_adaptive.same_run(key["ref"], reference)
-    assert not para_adaptive.same_run(key["ref"], para_adaptive.run_fingerprint(
-        root / "reference" / "paper-scale" / f"{other}-parabolic.npz"))
+    assert para_adaptive.same_run(key["ref"], _committed_reference(para_adaptive, problem))
+    assert not para_adaptive.same_run(key["ref"], _committed_reference(para_adaptive, other))
     assert nxt == next_pass
 
 
