@@ -324,6 +324,25 @@ def test_algorithm_c_passes_are_judged_by_their_own_uncertainty(tmp_path):
     assert "its measured uncertainty" in text and "own error 0.07 " in text
 
 
+def test_algorithm_c_pass_times_past_ten_thousand_seconds_print_in_full(tmp_path):
+    """A paper-scale pass: its wall time and memory past 10^4 print as 10310.4 s and
+    17040 MB, its space-time DOFs whole, not in exponent form; the other columns keep four
+    significant digits."""
+    passes = script("para_passes")
+    runs, iterations, ref = algorithm_c_run(tmp_path, reference_error=0.01)
+    runs.assign(t_wall=[1.0, 3.0, 7.0, 10310.44], peak_mem_mb=[500.0, 500.0, 500.0, 17040.3],
+                eta=[2.0, 1.0, 0.5, 0.123456]).to_csv(iterations, index=False)
+    text = passes.page(passes.passes(iterations, ref))
+    rows = [ln for ln in text.splitlines() if ln.startswith("|") and "---" not in ln]
+    head = [c.strip() for c in rows[0].strip("|").split("|")]
+    last = [c.strip() for c in rows[4].strip("|").split("|")]
+    assert last[head.index("t_wall")] == "10310.4"
+    assert last[head.index("peak_mem_mb")] == "17040"
+    assert last[head.index("eta")] == "0.1235"
+    assert last[head.index("spacetime_dofs")] == "94075"
+    assert "e+0" not in "\n".join(rows[:5])
+
+
 def test_algorithm_c_passes_refuse_another_table(tmp_path):
     passes = script("para_passes")
     runs, iterations, ref = algorithm_c_run(tmp_path, reference_error=0.05)

@@ -10,7 +10,7 @@ from fracfem_workflow.logs import log_to, script_logger
 from fracfem_workflow.plotstyle import (ERROR_LABELS, SPACETIME_DOFS, legend_below,
                                         para_error_panel, plt, problem_title, save)
 from fracfem_workflow.report import (REFERENCE_MARGIN, algorithm_c_table, fit_mask,
-                                     local_slopes, with_fit_bound)
+                                     local_slopes, whole_numbers, with_fit_bound)
 
 logger = script_logger("para_passes")
 
@@ -58,6 +58,21 @@ def pass_table(d):
     return table
 
 
+# seconds to a tenth and megabytes whole: ".4g" would print a time past 10^4 s (a paper-scale
+# pass) in exponent form, 1.031e+04
+FIXED_COLUMNS = {"t_total": ".1f", "t_wall": ".1f", "t_error_pass": ".1f", "peak_mem_mb": ".0f"}
+
+
+COUNTS = ("slabs", "steps", "dofs", "spacetime_dofs")
+
+
+def pass_table_markdown(table):
+    """The pass table as the page prints it: the counts whole, the times and the memory in
+    fixed notation (FIXED_COLUMNS), the rest to four significant digits."""
+    return whole_numbers(table, COUNTS).to_markdown(
+        index=False, floatfmt=[FIXED_COLUMNS.get(c, ".4g") for c in table.columns])
+
+
 def figure(d, png):
     """Error and η of every pass against space-time DOFs (with the rates fitted as in
     Figure 13/15) and against the wall time of all passes so far."""
@@ -96,7 +111,7 @@ def page(d):
                "bound the measured error is as much the reference's as the pass's, and its "
                "local slope says nothing.")
     return (how + "\n\n"
-            + pass_table(d).to_markdown(index=False, floatfmt=".4g")
+            + pass_table_markdown(pass_table(d))
             + "\n\nRates over the passes in the fit (η's also over all passes), and the "
             "efficiency index η/error of every pass:\n\n"
             + algorithm_c_table(d).to_markdown(index=False, floatfmt=".3g") + "\n")
