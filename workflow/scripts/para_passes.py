@@ -61,8 +61,6 @@ def pass_table(d):
 # seconds to a tenth and megabytes whole: ".4g" would print a time past 10^4 s (a paper-scale
 # pass) in exponent form, 1.031e+04
 FIXED_COLUMNS = {"t_total": ".1f", "t_wall": ".1f", "t_error_pass": ".1f", "peak_mem_mb": ".0f"}
-
-
 COUNTS = ("slabs", "steps", "dofs", "spacetime_dofs")
 
 
