@@ -201,7 +201,8 @@ def main(argv=None):
             "max_rel_err: largest |κ − direct sum| / direct sum over a random sample "
             f"of at most {args.sample} of κ's values in the timed part; points: κ's "
             "points in the part; "
-            "load: 1-minute load average before-after.\n\n")
+            "load: 1-minute load average before-after. Source and target leaves 24 were "
+            "κ's before it had leaves of its own (the operator's).\n\n")
     write(rows, COLUMNS, head + table, args.csv, args.md)
     print(table)
 
