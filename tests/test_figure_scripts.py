@@ -28,6 +28,20 @@ def script(name):
     return module
 
 
+def page_tables(text):
+    """Every table of a Markdown page, in order: its rows (the separator left out), each a
+    dict of its header's names to the row's cells, stripped."""
+    tables, block = [], []
+    for line in text.splitlines() + [""]:
+        if line.startswith("|"):
+            block.append([c.strip() for c in line.strip().strip("|").split("|")])
+        elif block:
+            head, _, *rows = block
+            tables.append([dict(zip(head, r)) for r in rows])
+            block = []
+    return tables
+
+
 def test_dg0_steps_start_at_the_initial_time():
     """End times 0.2, 0.5, 1 with lengths 0.2, 0.3, 0.5: the first step is (0, 0.2]."""
     fig11 = script("fig11")
@@ -284,10 +298,7 @@ def test_algorithm_c_passes_are_judged_by_the_reference_alone(tmp_path, captured
     passes.main(iterations, ref, md, tmp_path / "out" / "fig.png")
     text = md.read_text()
     assert "own error 0.07 " in text
-    rows = [ln for ln in text.splitlines() if ln.startswith("|") and "---" not in ln]
-    head = [c.strip() for c in rows[0].strip("|").split("|")]
-    fit = [ln.strip("|").split("|")[head.index("in fit")].strip() for ln in rows[1:5]]
-    assert fit == ["yes", "yes", "no", "no"]
+    assert [r["in fit"] for r in page_tables(text)[0]] == ["yes", "yes", "no", "no"]
     (fig,) = figures
     left, right = fig.axes[:2]
     # the legend of Figures 13 and 15: the error's rate over the fitted passes and the
@@ -333,14 +344,13 @@ def test_algorithm_c_pass_times_past_ten_thousand_seconds_print_in_full(tmp_path
     runs.assign(t_wall=[1.0, 3.0, 7.0, 10310.44], peak_mem_mb=[500.0, 500.0, 500.0, 17040.3],
                 eta=[2.0, 1.0, 0.5, 0.123456]).to_csv(iterations, index=False)
     text = passes.page(passes.passes(iterations, ref))
-    rows = [ln for ln in text.splitlines() if ln.startswith("|") and "---" not in ln]
-    head = [c.strip() for c in rows[0].strip("|").split("|")]
-    last = [c.strip() for c in rows[4].strip("|").split("|")]
-    assert last[head.index("t_wall")] == "10310.4"
-    assert last[head.index("peak_mem_mb")] == "17040"
-    assert last[head.index("eta")] == "0.1235"
-    assert last[head.index("spacetime_dofs")] == "94075"
-    assert "e+0" not in "\n".join(rows[:5])
+    table = page_tables(text)[0]
+    last = table[3]
+    assert last["t_wall"] == "10310.4"
+    assert last["peak_mem_mb"] == "17040"
+    assert last["eta"] == "0.1235"
+    assert last["spacetime_dofs"] == "94075"
+    assert not any("e+0" in cell for row in table for cell in [*row, *row.values()])
 
 
 def test_algorithm_c_passes_refuse_another_table(tmp_path):
@@ -409,12 +419,8 @@ def test_time_split_page_fits_each_refinement_through_the_passes_above_the_margi
     df = pd.DataFrame(rows)
     ref_error = df[(df["pass"] == 3) & (df.m == 16)].error.iloc[0] / 2.9   # pass 3 of τ/16 out
     page = split.report(df, ref_error, [1, 4, 16], paper=-0.323)
-    tables = [[[c.strip() for c in ln.strip().strip("|").split("|")] for ln in block]
-              for block in (b.splitlines() for b in page.split("\n\n"))
-              if block and block[0].startswith("| ")]
-    (head1, _, *fits), (head2, _, *rows) = tables
-    fits = {r[0]: dict(zip(head1, r)) for r in fits}
-    rows = [dict(zip(head2, r)) for r in rows]
+    fits, rows = page_tables(page)
+    fits = {r["time steps"]: r for r in fits}
     e = {m: df[df.m == m].error.to_numpy() for m in (1, 4, 16)}
     keep = {m: e[m] > 3 * ref_error for m in (1, 4, 16)}
     assert keep[1].tolist() == [True] * 4 and keep[16].tolist() == [True, True, True, False]
@@ -669,13 +675,10 @@ def test_time_split_page_adds_the_graded_series_in_the_order_of_its_dofs():
                          "reference_error": 0.03 if tag == "h0.1" and m == 16 else 1e-3})
     graded = pd.DataFrame(rows)
     page = split.report(passes, None, [1, 4, 16], graded=graded, paper_graded=-0.325)
-    tables = [[[c.strip() for c in ln.strip().strip("|").split("|")] for ln in block]
-              for block in (b.splitlines() for b in page.split("\n\n"))
-              if block and block[0].startswith("| ")]
+    tables = page_tables(page)
     assert len(tables) == 4 and "-0.325" in page
-    (head, _, *fits), (head2, _, *runs) = tables[2:]
-    fits = {r[0]: dict(zip(head, r)) for r in fits}
-    runs = [dict(zip(head2, r)) for r in runs]
+    fits, runs = tables[2:]
+    fits = {r["time steps"]: r for r in fits}
     assert [r["tag"] for r in runs] == ["h0.4", "h0.2", "h0.1"]
     n = np.array(list(N.values()))
     for m, label in ((1, "as the run"), (16, "16× (τ/16)")):
