@@ -7,7 +7,13 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.report import energy_error, extrapolate_energy, fit_mask, local_slopes
+from fracfem_workflow.report import (energy_error, extrapolate_energy, fit_mask, local_slopes,
+                                     whole_numbers)
+
+# the large series' wall time and memory in whole seconds and MB, its DOFs and the number of
+# families whole: printed to four significant digits they came out as 3.002e+05 and 2.035e+04
+FIXED_COLUMNS = {"large time [s]": ".0f", "large peak MB": ".0f"}
+COUNTS = ("large DOFs", "families")
 
 
 def ex1_checks(ex1_csv, family):
@@ -23,6 +29,13 @@ def ex1_checks(ex1_csv, family):
                      "reference error": float(energy_error(ext["energy"], exact)),
                      "finest error": float(df[df.s == s].error.min())})
     return rows
+
+
+def reference_table_markdown(table):
+    """The table of references as the page prints it: the counts whole, the large series'
+    time and memory in fixed notation (FIXED_COLUMNS), the rest to four significant digits."""
+    return whole_numbers(table, COUNTS).to_markdown(
+        index=False, floatfmt=[FIXED_COLUMNS.get(c, ".4g") for c in table.columns])
 
 
 def main(refs, errors, ex1_csv, family, md):
@@ -83,7 +96,7 @@ def main(refs, errors, ex1_csv, family, md):
             "are the fitted rates with each family's limit, and the large series' limit, in "
             "turn as the reference. "
             "'finest error' is the smallest error of any family of the series.\n\n"
-            + table.to_markdown(index=False, floatfmt=".4g")
+            + reference_table_markdown(table)
             + "\n\nEfficiency index η / error along the adaptive series (Algorithm B):\n\n"
             + pd.DataFrame(eff).to_markdown(index=False, floatfmt=".3g")
             + "\n\nThe graded family (the paper's anisotropic meshes) run by run: "
