@@ -489,12 +489,9 @@ def test_ex5_uniform_cause_solves_the_uniform_runs_again_with_more_time_steps(tm
     text = (tmp_path / "page.md").read_text()
     assert text.count("| h0.1 ") == 2                # Example 5's family and u₀ = 1's
     share = 1 - (fine.error / own.error) ** 2
-    (head,) = [ln for ln in text.splitlines() if ln.startswith("| tag ") and "least" in ln]
-    cols = [c.strip() for c in head.strip().strip("|").split("|")]
+    (shares,) = [t for t in page_tables(text) if t and "least share" in t[0]]
     for tag in ("L2", "L3"):
-        (line,) = [ln for ln in text.splitlines()
-                   if ln.startswith(f"| {tag} ") and "|   3 |" in ln]
-        row = dict(zip(cols, (c.strip() for c in line.strip().strip("|").split("|"))))
+        (row,) = [r for r in shares if r["tag"] == tag and r["m"] == "3"]
         assert float(row["1 − (e(τ/m)/e)²"]) == pytest.approx(share[tag], rel=1e-3)
         assert row["least share"] == "nan"     # a family of three measures no uncertainty
 
@@ -1202,9 +1199,8 @@ def test_vi_runs_page_shows_counts_whole_and_blank_where_a_problem_has_none(tmp_
                   "stick": [0]}).to_csv(friction)
     md = tmp_path / "vi-runs.md"
     vi_runs.main([obstacle, friction], md)
-    rows = [r.split("|")[1:-1] for r in md.read_text().splitlines()[2:]]
-    head = [c.strip() for c in md.read_text().splitlines()[0].split("|")[1:-1]]
-    cell = {(r[0].strip(), h): v.strip() for r in rows for h, v in zip(head, r)}
+    (rows,) = page_tables(md.read_text())
+    cell = {(r["problem"], h): v for r in rows for h, v in r.items()}
     assert cell["ex3", "slip_plus"] == "1977"                 # not 1.98e+03
     assert cell["ex2", "slip_plus"] == "" and cell["ex3", "contact"] == ""
     assert cell["ex2", "contact"] == "84" and cell["ex3", "stick"] == "0"
