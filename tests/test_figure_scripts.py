@@ -1149,6 +1149,18 @@ def test_algorithm_c_job_continues_from_a_committed_checkpoint(tmp_path, monkeyp
     assert para_adaptive.checkpoint_differences(made, json.dumps(older)) == ["ref"]
 
 
+def test_committed_results_page_holds_the_committed_pages_as_they_stand():
+    """paper-figures/RESULTS.md is what results_page makes of the committed figures and
+    tables with config.yaml's problems: a page rendered again by its own rule alone, without
+    the results page after it, shows here."""
+    import yaml
+    page = script("results_page")
+    para = yaml.safe_load((ROOT / "config.yaml").read_text())["parabolic"]
+    expected = page.render(ROOT / "paper-figures", para["time_split"]["problems"],
+                           list(para["examples"]), para["self_reference"]["problems"])
+    assert (ROOT / "paper-figures" / "RESULTS.md").read_text() == expected
+
+
 def test_results_page_names_one_file_per_problem_of_each_list(tmp_path):
     """"{problem}" stands for the problems of parabolic.time_split, "{para}" for every
     parabolic problem; a file the page names but the run did not make is an error."""
