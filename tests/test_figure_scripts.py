@@ -16,6 +16,7 @@ import pytest
 
 import fracfem as ff
 from fracfem_workflow import plotstyle
+from pages import page_tables
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -26,20 +27,6 @@ def script(name):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
-
-
-def page_tables(text):
-    """Every table of a Markdown page, in order: its rows (the separator left out), each a
-    dict of its header's names to the row's cells, stripped."""
-    tables, block = [], []
-    for line in text.splitlines() + [""]:
-        if line.startswith("|"):
-            block.append([c.strip() for c in line.strip().strip("|").split("|")])
-        elif block:
-            head, _, *rows = block
-            tables.append([dict(zip(head, r)) for r in rows])
-            block = []
-    return tables
 
 
 def test_dg0_steps_start_at_the_initial_time():

@@ -159,6 +159,26 @@ def reading(df) -> str:
     return "\n".join(lines)
 
 
+# the page's two tables: extreme s and grading exponent, then the anisotropic cases
+COLUMNS = ["case", "s", "dofs", "h_min", "min_angle", "error", "galerkin_ok", "spd", "cond",
+           "quad_change_over_err2", "status"]
+ANISO_COLUMNS = ["case", "dofs", "thinnest_layer", "max_aspect", "error",
+                 "quad_change_over_err2", "cond", "cond_scaled", "roundoff_over_err2",
+                 "residual", "seconds", "cpu_seconds", "status"]
+# the clocks to a tenth of a second (to three significant digits a case of 1640 s printed as
+# 1.64e+03), every other number to three significant digits
+FIXED_COLUMNS = {"seconds": ".1f", "cpu_seconds": ".1f"}
+
+
+def page(df) -> str:
+    """stability.md: the two tables (COLUMNS, ANISO_COLUMNS) and the reading."""
+    an = df.family.notna()
+    tables = [df.loc[rows, cols].to_markdown(
+        index=False, floatfmt=[FIXED_COLUMNS.get(c, ".3g") for c in cols])
+        for rows, cols in ((~an, COLUMNS), (an, ANISO_COLUMNS))]
+    return "\n\n".join(tables + [reading(df)]) + "\n"
+
+
 # the measures of the figure in symbols: the change of (f, u_h) when every quadrature order
 # is raised (QuadratureOptions.raised()), relative to the squared energy error
 QUAD_CHANGE = r"$|\Delta(f,u_h)| / \|u-u_h\|_a^2$, quadrature raised"
@@ -239,16 +259,8 @@ def main(md, png, csv, log=None, threads=None):
     rows += aniso_rows()
     df = pd.DataFrame(rows)
     write_table(with_provenance(df), csv)
-    cols = ["case", "s", "dofs", "h_min", "min_angle", "error", "galerkin_ok", "spd", "cond",
-            "quad_change_over_err2", "status"]
-    aniso = ["case", "dofs", "thinnest_layer", "max_aspect", "error", "quad_change_over_err2",
-             "cond", "cond_scaled", "roundoff_over_err2", "residual", "seconds", "cpu_seconds",
-             "status"]
-    an = df.family.notna()
     with atomic_path(md) as tmp:
-        tmp.write_text(df.loc[~an, cols].to_markdown(index=False, floatfmt=".3g") + "\n\n"
-                       + df.loc[an, aniso].to_markdown(index=False, floatfmt=".3g") + "\n\n"
-                       + reading(df) + "\n")
+        tmp.write_text(page(df))
     figure(df, png)
 
 
