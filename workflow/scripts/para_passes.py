@@ -10,7 +10,7 @@ from fracfem_workflow.logs import log_to, script_logger
 from fracfem_workflow.plotstyle import (ERROR_LABELS, SPACETIME_DOFS, legend_below,
                                         para_error_panel, plt, problem_title, save)
 from fracfem_workflow.report import (REFERENCE_MARGIN, algorithm_c_table, fit_mask,
-                                     local_slopes, whole_numbers, with_fit_bound)
+                                     local_slopes, markdown_table, with_fit_bound)
 
 logger = script_logger("para_passes")
 
@@ -67,8 +67,7 @@ COUNTS = ("slabs", "steps", "dofs", "spacetime_dofs")
 def pass_table_markdown(table):
     """The pass table as the page prints it: the counts whole, the times and the memory in
     fixed notation (FIXED_COLUMNS), the rest to four significant digits."""
-    return whole_numbers(table, COUNTS).to_markdown(
-        index=False, floatfmt=[FIXED_COLUMNS.get(c, ".4g") for c in table.columns])
+    return markdown_table(table, COUNTS, FIXED_COLUMNS)
 
 
 def figure(d, png):

@@ -8,7 +8,7 @@ import pandas as pd
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
 from fracfem_workflow.report import (energy_error, extrapolate_energy, fit_mask, local_slopes,
-                                     whole_numbers)
+                                     markdown_table)
 
 # the large series' wall time and memory in whole seconds and MB, its DOFs and the number of
 # families whole: printed to four significant digits they came out as 3.002e+05 and 2.035e+04
@@ -34,8 +34,7 @@ def ex1_checks(ex1_csv, family):
 def reference_table_markdown(table):
     """The table of references as the page prints it: the counts whole, the large series'
     time and memory in fixed notation (FIXED_COLUMNS), the rest to four significant digits."""
-    return whole_numbers(table, COUNTS).to_markdown(
-        index=False, floatfmt=[FIXED_COLUMNS.get(c, ".4g") for c in table.columns])
+    return markdown_table(table, COUNTS, FIXED_COLUMNS)
 
 
 def main(refs, errors, ex1_csv, family, md):

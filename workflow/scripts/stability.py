@@ -18,6 +18,7 @@ from fracfem.meshes import min_angle
 from fracfem_workflow.io import atomic_path, with_provenance, write_table
 from fracfem_workflow.logs import script_logger
 from fracfem_workflow.plotstyle import ERROR_LABELS, plain_log_ticks, plt, save
+from fracfem_workflow.report import markdown_table
 from fracfem_workflow.runs import start
 
 logger = script_logger("stability")
@@ -173,9 +174,8 @@ FIXED_COLUMNS = {"seconds": ".1f", "cpu_seconds": ".1f"}
 def page(df) -> str:
     """stability.md: the two tables (COLUMNS, ANISO_COLUMNS) and the reading."""
     an = df.family.notna()
-    tables = [df.loc[rows, cols].to_markdown(
-        index=False, floatfmt=[FIXED_COLUMNS.get(c, ".3g") for c in cols])
-        for rows, cols in ((~an, COLUMNS), (an, ANISO_COLUMNS))]
+    tables = [markdown_table(df.loc[rows, cols], fixed=FIXED_COLUMNS, digits=".3g")
+              for rows, cols in ((~an, COLUMNS), (an, ANISO_COLUMNS))]
     return "\n\n".join(tables + [reading(df)]) + "\n"
 
 

@@ -3,7 +3,7 @@ import pandas as pd
 
 from fracfem_workflow.io import atomic_path
 from fracfem_workflow.logs import log_to
-from fracfem_workflow.report import whole_numbers
+from fracfem_workflow.report import markdown_table
 
 COLUMNS = ["problem", "family", "dofs", "multipliers", "h_max", "iterations_uzawa",
            "iterations_pdas", "contact", "slip_plus", "slip_minus", "stick",
@@ -19,8 +19,7 @@ def main(tables, md):
     df = pd.concat([pd.read_csv(t) for t in tables], ignore_index=True)
     cols = [c for c in COLUMNS if c in df.columns]
     with atomic_path(md) as tmp:
-        tmp.write_text(whole_numbers(df[cols], COUNTS).to_markdown(index=False, floatfmt=".3g")
-                       + "\n")
+        tmp.write_text(markdown_table(df[cols], COUNTS, digits=".3g") + "\n")
 
 
 if __name__ == "__main__":

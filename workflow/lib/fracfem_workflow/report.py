@@ -231,6 +231,16 @@ def whole_numbers(df: pd.DataFrame, columns=()) -> pd.DataFrame:
     return shown
 
 
+def markdown_table(df: pd.DataFrame, counts=(), fixed=None, digits: str = ".4g") -> str:
+    """The table in Markdown as a page prints it: integer columns and the ``counts`` named
+    whole (:func:`whole_numbers`), the columns of ``fixed`` in the format it maps them to
+    (times and memory in fixed notation: ``{"t_wall": ".1f"}``), every other number to
+    ``digits``."""
+    fixed = fixed or {}
+    return whole_numbers(df, counts).to_markdown(
+        index=False, floatfmt=[fixed.get(c, digits) for c in df.columns])
+
+
 def join_tiers(rates: pd.DataFrame, others: dict) -> pd.DataFrame:
     """The rate table with the rates of other tiers beside it.
 
