@@ -10,6 +10,10 @@ def page_tables(text):
             block.append([c.strip() for c in line.strip().strip("|").split("|")])
         elif block:
             head, _, *rows = block
+            for r in rows:       # a bar inside a cell would shift every cell after it
+                if len(r) != len(head):
+                    raise ValueError(f"a row of {len(r)} cells under a header of {len(head)}: "
+                                     f"{r}")
             tables.append([dict(zip(head, r)) for r in rows])
             block = []
     return tables

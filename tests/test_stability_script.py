@@ -83,16 +83,17 @@ def test_reading_sums_both_clocks_over_every_anisotropic_case():
 
 
 def test_page_prints_the_clocks_in_full_and_the_rest_to_three_digits():
-    """A case of 1640.24 s wall (98.76 s CPU) prints as 1640.2 and 98.8, not 1.64e+03; the
-    error keeps three significant digits; the extreme-s table has its own columns."""
+    """A case of 1640.24 s wall (1234.56 s CPU) prints as 1640.2 and 1234.6, not 1.64e+03 and
+    1.23e+03; the errors keep three significant digits; each table has its own columns."""
     sweep = pd.DataFrame([dict(case="s sweep, disk_uniform(3)", s=0.01, dofs=113, h_min=0.125,
                                min_angle=34.1, error=0.51312, galerkin_ok=True, spd=True,
                                cond=6.46, quad_change_over_err2=2.9e-6, status="ok")])
     aniso = _rows([0.2, 0.1, 0.05]).assign(seconds=[12.4, 33.2, 1640.24, 81.8],
-                                           cpu_seconds=[20.0, 60.0, 98.76, 150.0])
+                                           cpu_seconds=[20.0, 60.0, 1234.56, 150.0])
     text = st.page(pd.concat([sweep, aniso], ignore_index=True))
     first, second = page_tables(text)
     assert list(first[0]) == st.COLUMNS and list(second[0]) == st.ANISO_COLUMNS
     (cells,) = [r for r in second if r["case"] == "n16"]
-    assert (cells["seconds"], cells["cpu_seconds"], cells["error"]) == ("1640.2", "98.8", "0.05")
+    assert (cells["seconds"], cells["cpu_seconds"]) == ("1640.2", "1234.6")
+    assert first[0]["error"] == "0.513" and first[0]["dofs"] == "113"
     assert "e+03" not in text and "**Reading" in text

@@ -8,7 +8,7 @@ __all__ = ["PAPER_RATES", "PAPER_S", "REFERENCE_MARGIN", "paper_rate", "fit_rate
            "masked_rate",
            "rate_table", "extrapolate_energy", "extrapolation_uncertainty",
            "energy_error", "contact_extent", "time_to_reach", "algorithm_c_table", "PARTS",
-           "whole_numbers"]
+           "whole_numbers", "markdown_table"]
 
 # error in H^s vs DOFs (parabolic: vs space-time DOFs), paper Section 8
 PAPER_RATES = {
