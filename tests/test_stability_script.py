@@ -97,3 +97,10 @@ def test_page_prints_the_clocks_in_full_and_the_rest_to_three_digits():
     assert (cells["seconds"], cells["cpu_seconds"]) == ("1640.2", "1234.6")
     assert first[0]["error"] == "0.513" and first[0]["dofs"] == "113"
     assert "e+03" not in text and "**Reading" in text
+
+
+def test_committed_page_has_the_scripts_columns():
+    """paper-figures/stability.md (its rule is outside `rule all`) was written by this
+    script as it stands: its two tables have the columns page() writes."""
+    first, second = page_tables((ROOT / "paper-figures" / "stability.md").read_text())
+    assert list(first[0]) == st.COLUMNS and list(second[0]) == st.ANISO_COLUMNS
