@@ -342,8 +342,9 @@ def test_algorithm_c_pass_times_past_ten_thousand_seconds_print_in_full(tmp_path
 
 def test_reference_table_prints_the_large_series_size_time_and_memory_in_full():
     """A large Algorithm B series of 300,161 DOFs that took 12,345.6 s and 20,350.4 MB prints
-    as 300161, 12346 and 20350, not as 3.002e+05, 1.235e+04 and 2.035e+04; a row without a large series
-    leaves those cells blank or nan, and the energies keep four significant digits."""
+    as 300161, 12346 and 20350, not as 3.002e+05, 1.235e+04 and 2.035e+04; a row without a
+    large series leaves those cells blank or nan, and the energies keep four significant
+    digits."""
     ref = script("reference_table")
     table = pd.DataFrame([
         {"problem": "ex1 (s=0.5)", "E_ref": -0.666667, "large DOFs": np.nan,
