@@ -1,19 +1,48 @@
 """Reading the Markdown pages the workflow writes, for the tests that check them."""
+import re
+
+
+def row_cells(line, rule):
+    """The cells of one table line, stripped, escaped bars read as bars. A line as long as
+    the table's separator line (an aligned table) is cut at the separator's bars, since a
+    cell may hold a bar itself (max |λ|); any other line at its unescaped bars."""
+    if len(line) == len(rule):
+        bars = [i for i, ch in enumerate(rule) if ch == "|"]
+        cells = [line[a + 1:b] for a, b in zip(bars, bars[1:])]
+    else:
+        cells = re.split(r"(?<!\\)\|", line.strip()[1:-1])
+    return [c.strip().replace("\\|", "|") for c in cells]
+
+
+def _blocks(text):
+    """Each table of a page as its lines: header, separator, rows."""
+    block = []
+    for line in text.splitlines() + [""]:
+        if line.startswith("|"):
+            block.append(line.rstrip())
+        elif block:
+            if len(block) >= 2 and re.fullmatch(r"\|[\s:|-]+\|", block[1]):
+                yield block
+            block = []
+
+
+def page_headers(text):
+    """The column names of every table of a Markdown page, in order."""
+    return [row_cells(head, rule) for head, rule, *_ in _blocks(text)]
 
 
 def page_tables(text):
     """Every table of a Markdown page, in order: its rows (the separator left out), each a
-    dict of its header's names to the row's cells, stripped."""
-    tables, block = [], []
-    for line in text.splitlines() + [""]:
-        if line.startswith("|"):
-            block.append([c.strip() for c in line.strip().strip("|").split("|")])
-        elif block:
-            head, _, *rows = block
-            for r in rows:       # a bar inside a cell would shift every cell after it
-                if len(r) != len(head):
-                    raise ValueError(f"a row of {len(r)} cells under a header of {len(head)}: "
-                                     f"{r}")
-            tables.append([dict(zip(head, r)) for r in rows])
-            block = []
+    dict of its header's names to the row's cells."""
+    tables = []
+    for head, rule, *rows in _blocks(text):
+        names = row_cells(head, rule)
+        table = []
+        for line in rows:        # a bar inside a cell would shift every cell after it
+            cells = row_cells(line, rule)
+            if len(cells) != len(names):
+                raise ValueError(f"a row of {len(cells)} cells under a header of "
+                                 f"{len(names)}: {cells}")
+            table.append(dict(zip(names, cells)))
+        tables.append(table)
     return tables

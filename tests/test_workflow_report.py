@@ -15,6 +15,8 @@ from types import SimpleNamespace
 
 import pytest
 
+from pages import page_headers
+
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(shutil.which("snakemake") is None,
                                 reason="snakemake is not installed")
@@ -114,17 +116,6 @@ def render(caption, config, wildcards=None, params=None):
     return text, html
 
 
-def header_cells(head, rule):
-    """Column names of a Markdown table header; aligned tables are cut at the separator
-    line's bars, since a column name may contain a bar itself (max |λ|)."""
-    if len(head) == len(rule):
-        bars = [i for i, ch in enumerate(rule) if ch == "|"]
-        cells = [head[a + 1:b] for a, b in zip(bars, bars[1:])]
-    else:                                   # bars escaped as \| inside a name
-        cells = re.split(r"(?<!\\)\|", head.strip()[1:-1])
-    return [c.strip().replace("\\|", "|") for c in cells]
-
-
 def figures_and_tables(wf):
     """The targets of rule all in the figures root that the report shows."""
     return [t for t in wf["targets"]
@@ -196,10 +187,8 @@ def test_the_front_page_defines_every_column_of_the_committed_tables(workflow):
     families = "uniform|graded|adaptive"
     columns = {}
     for table in sorted((ROOT / "paper-figures").glob("*.md")):
-        lines = table.read_text().splitlines()
-        for head, rule in zip(lines, lines[1:]):
-            if head.startswith("|") and re.fullmatch(r"\|[\s:|-]+\|", rule):
-                columns.setdefault(table.name, []).extend(header_cells(head, rule))
+        for names in page_headers(table.read_text()):
+            columns.setdefault(table.name, []).extend(names)
     for table in sorted((ROOT / "paper-figures").glob("*.csv")):
         columns[table.name] = table.read_text().splitlines()[0].split(",")
     assert len(columns) >= 15 and "efficiency" in columns["ex1-errors.md"]
