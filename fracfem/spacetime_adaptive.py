@@ -608,7 +608,8 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
     cache: OrderedDict = OrderedDict()      # id(coarse) → (coarse, Stepper), in use last
     clock = Ticker(0.0)
     logger.info("Algorithm C: at most %d iterations on [0, %g], marking %s, theta %g, "
-                "c_tau %g, tol %s", iterations, run.T, marking, theta, c_tau, tol)
+                "c_tau %g, tol %s; assembled problems cached up to %.2f GiB", iterations,
+                run.T, marking, theta, c_tau, tol, cache_bytes / 2.0 ** 30)
     for it in range(first_iteration, iterations):
         t_iter = time.perf_counter()
         sweep = _sweep(run, slabs, cache, make_problem, cache_bytes)

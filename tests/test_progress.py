@@ -79,6 +79,16 @@ def test_algorithm_c_logs_one_info_line_per_iteration(caplog):
         assert f"{rec.dofs} space-time DOFs, eta {rec.eta:.4e}" in text
 
 
+def test_algorithm_c_start_line_names_the_cache_budget(caplog):
+    """The run's memory depends on the assembled-problem cache: its log says how large."""
+    with caplog.at_level(logging.INFO, logger="fracfem"):
+        ff.algorithm_c(lambda c: vi.mixed_problem("obstacle", c, S, 0.0, chi=CHI),
+                       ff.disk_uniform(1), 2.0, T=0.5, theta=0.5, iterations=1,
+                       cache_bytes="1.5G")
+    (line,) = messages(caplog.records, "fracfem.spacetime_adaptive", "Algorithm C: at most")
+    assert line.getMessage().endswith("assembled problems cached up to 1.50 GiB")
+
+
 # ----------------------------------------------------------------- solvers
 
 
