@@ -6,7 +6,9 @@ asks for hundreds of GiB.  Without a guard numpy allocates until it fails (or
 the system swaps); :func:`check_dense` refuses such a problem at once.
 
 The limit is the memory available now (``MemAvailable`` of /proc/meminfo, else
-free physical pages), or the value of the environment variable
+free physical pages, and no more than the process's control group leaves: the memory limit
+that a batch scheduler such as SLURM or a container sets, less what the group uses), or the
+value of the environment variable
 ``FRACFEM_MEMORY_LIMIT`` (bytes, or with a suffix K, M, G, T: ``"2G"``), or a
 ``memory_limit`` argument where a function offers one.
 """
@@ -15,10 +17,12 @@ from __future__ import annotations
 import logging
 import os
 import re
+from pathlib import Path
 
 log = logging.getLogger(__name__)
 
-__all__ = ["DenseMemoryError", "available_memory", "memory_limit", "check_dense", "ENV"]
+__all__ = ["DenseMemoryError", "available_memory", "cgroup_available", "memory_limit",
+           "check_dense", "ENV"]
 
 ENV = "FRACFEM_MEMORY_LIMIT"
 GIB = 2.0 ** 30
@@ -34,18 +38,94 @@ class DenseMemoryError(MemoryError, ValueError):
 
 
 def available_memory() -> int | None:
-    """Bytes of memory available now: MemAvailable of /proc/meminfo, else free pages."""
+    """Bytes of memory available now: MemAvailable of /proc/meminfo, else free pages; at
+    most what the process's control group leaves (:func:`cgroup_available`)."""
+    avail = None
     try:
         with open("/proc/meminfo") as fh:
             for line in fh:
                 if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
+                    avail = int(line.split()[1]) * 1024
+                    break
     except (OSError, ValueError, IndexError):
         pass
+    if avail is None:
+        try:
+            avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (ValueError, OSError, AttributeError):
+            pass
+    group = cgroup_available()
+    if group is None:
+        return avail
+    return group if avail is None else min(avail, group)
+
+
+# a cgroup v1 limit this large means no limit (the kernel prints about 2**63)
+_NO_LIMIT = 2 ** 60
+
+
+def _read_int(path: Path) -> int | None:
     try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
+        text = path.read_text().strip()
+    except OSError:
         return None
+    return int(text) if text.isdigit() else None        # "max": no limit
+
+
+def _inactive_file(path: Path, key: str) -> int:
+    """Reclaimable page cache of a group (its memory.stat), counted as available."""
+    try:
+        for line in (path / "memory.stat").read_text().splitlines():
+            name, _, value = line.partition(" ")
+            if name == key and value.strip().isdigit():
+                return int(value)
+    except OSError:
+        pass
+    return 0
+
+
+def cgroup_available(proc_cgroup: str | Path = "/proc/self/cgroup",
+                     root: str | Path = "/sys/fs/cgroup") -> int | None:
+    """Bytes the process's memory control group and its ancestors leave: the least of
+    limit − (usage − inactive page cache) over the groups that set a limit, None when
+    none does (or no control group is readable).
+
+    A SLURM job whose memory is enforced, or a container, runs in such a group: its limit,
+    not the node's free memory, is what the process may use. Both cgroup v2 (``0::path``,
+    ``memory.max`` and ``memory.current`` under ``root``) and v1 (the ``memory``
+    controller's line, ``memory.limit_in_bytes`` and ``memory.usage_in_bytes`` under
+    ``root/memory``) are read.
+    """
+    try:
+        lines = Path(proc_cgroup).read_text().splitlines()
+    except OSError:
+        return None
+    root = Path(root)
+    found = []
+    for line in lines:
+        ident, _, rest = line.partition(":")
+        controllers, _, path = rest.partition(":")
+        if ident == "0" and controllers == "":
+            files, base = ("memory.max", "memory.current", "inactive_file"), root
+        elif "memory" in controllers.split(","):
+            files, base = (("memory.limit_in_bytes", "memory.usage_in_bytes",
+                            "total_inactive_file"), root / "memory")
+        else:
+            continue
+        limit_name, usage_name, cache_key = files
+        group = base / path.strip("/")
+        if not group.is_dir():   # a container's mount: its own group is the mount's root
+            group = base
+        while True:           # the group, then each ancestor up to the hierarchy's root
+            limit = _read_int(group / limit_name)
+            usage = _read_int(group / usage_name)
+            if limit is not None and limit < _NO_LIMIT and usage is not None:
+                used = max(usage - _inactive_file(group, cache_key), 0)
+                found.append(max(limit - used, 0))
+            if group == base or base not in group.parents:
+                break
+            group = group.parent
+    return min(found) if found else None
 
 
 def _parse_bytes(value, name) -> float:
@@ -79,7 +159,7 @@ def memory_limit(limit=None) -> tuple[float | None, str]:
     if env:
         return _parse_bytes(env, ENV), f"allowed by {ENV}"
     avail = available_memory()
-    return avail, "available (MemAvailable)"
+    return avail, "available (MemAvailable, or less where the control group limits memory)"
 
 
 def check_dense(nbytes: float, *, what: str, advice: str, limit=None) -> None:

@@ -1,0 +1,77 @@
+"""The memory available to a process: the node's, and no more than its control group
+leaves (a SLURM job with enforced memory, a container). Made-up cgroup trees."""
+import pytest
+
+from fracfem import memory
+
+GIB = 2 ** 30
+
+
+def write(path, text):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+
+
+def test_cgroup_v2_limit_less_usage_less_reclaimable_cache(tmp_path):
+    job = tmp_path / "sys" / "system.slice" / "slurm" / "job_7"
+    write(tmp_path / "cgroup", "0::/system.slice/slurm/job_7/step_0\n")
+    write(job / "memory.max", f"{16 * GIB}\n")
+    write(job / "memory.current", f"{5 * GIB}\n")
+    write(job / "memory.stat", f"anon 1\ninactive_file {GIB}\nactive_file 3\n")
+    write(job / "step_0" / "memory.max", "max\n")          # the step: no limit of its own
+    write(job / "step_0" / "memory.current", f"{4 * GIB}\n")
+    got = memory.cgroup_available(tmp_path / "cgroup", tmp_path / "sys")
+    assert got == 16 * GIB - (5 * GIB - GIB)
+
+
+def test_cgroup_v1_takes_the_tightest_group_and_ignores_the_unlimited(tmp_path):
+    mem = tmp_path / "sys" / "memory"
+    write(tmp_path / "cgroup", "9:cpu,cpuacct:/a\n4:memory:/slurm/uid_0/job_3\n0::/\n")
+    write(mem / "memory.limit_in_bytes", "9223372036854771712\n")        # unlimited root
+    write(mem / "memory.usage_in_bytes", f"{20 * GIB}\n")
+    write(mem / "slurm" / "uid_0" / "memory.limit_in_bytes", f"{64 * GIB}\n")
+    write(mem / "slurm" / "uid_0" / "memory.usage_in_bytes", f"{60 * GIB}\n")
+    write(mem / "slurm" / "uid_0" / "job_3" / "memory.limit_in_bytes", f"{8 * GIB}\n")
+    write(mem / "slurm" / "uid_0" / "job_3" / "memory.usage_in_bytes", f"{2 * GIB}\n")
+    write(mem / "slurm" / "uid_0" / "job_3" / "memory.stat",
+          f"cache 5\ntotal_inactive_file {GIB // 2}\n")
+    got = memory.cgroup_available(tmp_path / "cgroup", tmp_path / "sys")
+    assert got == 4 * GIB                   # the user's 64 − 60 GiB, tighter than the job's
+
+
+def test_a_path_missing_under_the_mount_reads_the_mounts_own_group(tmp_path):
+    """A container sees its own group at the mount's root, not under the host's path."""
+    write(tmp_path / "cgroup", "4:memory:/docker/abc\n")
+    write(tmp_path / "sys" / "memory" / "memory.limit_in_bytes", f"{6 * GIB}\n")
+    write(tmp_path / "sys" / "memory" / "memory.usage_in_bytes", f"{GIB}\n")
+    write(tmp_path / "sys" / "memory" / "docker" / "memory.limit_in_bytes", "100\n")
+    write(tmp_path / "sys" / "memory" / "docker" / "memory.usage_in_bytes", "0\n")
+    assert memory.cgroup_available(tmp_path / "cgroup", tmp_path / "sys") == 5 * GIB
+
+
+def test_no_limit_or_no_cgroup_file_means_none(tmp_path):
+    write(tmp_path / "cgroup", "0::/\n")
+    write(tmp_path / "sys" / "memory.current", "123\n")      # the root group: no memory.max
+    assert memory.cgroup_available(tmp_path / "cgroup", tmp_path / "sys") is None
+    assert memory.cgroup_available(tmp_path / "missing", tmp_path / "sys") is None
+
+
+def test_a_group_over_its_limit_leaves_nothing(tmp_path):
+    write(tmp_path / "cgroup", "0::/job\n")
+    write(tmp_path / "sys" / "job" / "memory.max", "100\n")
+    write(tmp_path / "sys" / "job" / "memory.current", "150\n")
+    assert memory.cgroup_available(tmp_path / "cgroup", tmp_path / "sys") == 0
+
+
+def test_available_memory_is_at_most_what_the_cgroup_leaves(monkeypatch):
+    monkeypatch.setattr(memory, "cgroup_available", lambda: 3 * GIB)
+    assert memory.available_memory() == 3 * GIB          # this machine has more than 3 GiB
+    monkeypatch.setattr(memory, "cgroup_available", lambda: 2 ** 50)
+    node = memory.available_memory()
+    assert node is not None and node < 2 ** 50
+
+
+def test_algorithm_c_cache_default_follows_the_cgroup(monkeypatch):
+    from fracfem.spacetime_adaptive import _cache_bytes
+    monkeypatch.setattr(memory, "cgroup_available", lambda: 8 * GIB)
+    assert _cache_bytes(None) == pytest.approx(2 * GIB)
