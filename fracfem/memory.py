@@ -21,8 +21,8 @@ from pathlib import Path
 
 log = logging.getLogger(__name__)
 
-__all__ = ["DenseMemoryError", "available_memory", "cgroup_available", "memory_limit",
-           "check_dense", "ENV"]
+__all__ = ["DenseMemoryError", "available_memory", "node_available", "cgroup_available",
+           "memory_limit", "check_dense", "ENV"]
 
 ENV = "FRACFEM_MEMORY_LIMIT"
 GIB = 2.0 ** 30
@@ -37,24 +37,26 @@ class DenseMemoryError(MemoryError, ValueError):
     """
 
 
-def available_memory() -> int | None:
-    """Bytes of memory available now: MemAvailable of /proc/meminfo, else free pages; at
-    most what the process's control group leaves (:func:`cgroup_available`)."""
-    avail = None
+def node_available() -> int | None:
+    """Bytes of memory the machine has available now: MemAvailable of /proc/meminfo, else
+    free physical pages; None if neither can be read."""
     try:
         with open("/proc/meminfo") as fh:
             for line in fh:
                 if line.startswith("MemAvailable:"):
-                    avail = int(line.split()[1]) * 1024
-                    break
+                    return int(line.split()[1]) * 1024
     except (OSError, ValueError, IndexError):
         pass
-    if avail is None:
-        try:
-            avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-        except (ValueError, OSError, AttributeError):
-            pass
-    group = cgroup_available()
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available now: :func:`node_available`, at most what the process's
+    control group leaves (:func:`cgroup_available`)."""
+    avail, group = node_available(), cgroup_available()
     if group is None:
         return avail
     return group if avail is None else min(avail, group)
@@ -84,6 +86,22 @@ def _inactive_file(path: Path, key: str) -> int:
     return 0
 
 
+def _group_room(base: Path, path: str, limit_name: str, usage_name: str, cache_key: str):
+    """limit − (usage − inactive page cache) of the group and each ancestor with a limit."""
+    group = base / path.strip("/")
+    if not group.is_dir():       # a container's mount: its own group is the mount's root
+        group = base
+    while True:                  # the group, then each ancestor up to the hierarchy's root
+        limit = _read_int(group / limit_name)
+        usage = _read_int(group / usage_name)
+        if limit is not None and limit < _NO_LIMIT and usage is not None:
+            used = max(usage - _inactive_file(group, cache_key), 0)
+            yield max(limit - used, 0)
+        if group == base or base not in group.parents:
+            return
+        group = group.parent
+
+
 def cgroup_available(proc_cgroup: str | Path = "/proc/self/cgroup",
                      root: str | Path = "/sys/fs/cgroup") -> int | None:
     """Bytes the process's memory control group and its ancestors leave: the least of
@@ -98,7 +116,7 @@ def cgroup_available(proc_cgroup: str | Path = "/proc/self/cgroup",
     """
     try:
         lines = Path(proc_cgroup).read_text().splitlines()
-    except OSError:
+    except (OSError, ValueError):
         return None
     root = Path(root)
     found = []
@@ -113,18 +131,10 @@ def cgroup_available(proc_cgroup: str | Path = "/proc/self/cgroup",
         else:
             continue
         limit_name, usage_name, cache_key = files
-        group = base / path.strip("/")
-        if not group.is_dir():   # a container's mount: its own group is the mount's root
-            group = base
-        while True:           # the group, then each ancestor up to the hierarchy's root
-            limit = _read_int(group / limit_name)
-            usage = _read_int(group / usage_name)
-            if limit is not None and limit < _NO_LIMIT and usage is not None:
-                used = max(usage - _inactive_file(group, cache_key), 0)
-                found.append(max(limit - used, 0))
-            if group == base or base not in group.parents:
-                break
-            group = group.parent
+        try:                  # an unreadable group limits nothing that can be known
+            found.extend(_group_room(base, path, limit_name, usage_name, cache_key))
+        except (OSError, ValueError):
+            continue
     return min(found) if found else None
 
 

@@ -502,7 +502,7 @@ def _cache_bytes(value) -> float:
     from .memory import _parse_bytes, available_memory
     if value is None:
         avail = available_memory()
-        return max(2.0 ** 30, 0.25 * avail) if avail else 4.0 * 2.0 ** 30
+        return max(2.0 ** 30, 0.25 * avail) if avail is not None else 4.0 * 2.0 ** 30
     return _parse_bytes(value, "cache_bytes")
 
 

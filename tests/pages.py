@@ -3,11 +3,11 @@ import re
 
 
 def row_cells(line, rule):
-    """The cells of one table line, stripped, escaped bars read as bars. A line as long as
-    the table's separator line (an aligned table) is cut at the separator's bars, since a
+    """The cells of one table line, stripped, escaped bars read as bars. A line with bars
+    where the table's separator line has them (an aligned table) is cut there, since a
     cell may hold a bar itself (max |λ|); any other line at its unescaped bars."""
-    if len(line) == len(rule):
-        bars = [i for i, ch in enumerate(rule) if ch == "|"]
+    bars = [i for i, ch in enumerate(rule) if ch == "|"]
+    if len(line) == len(rule) and all(line[i] == "|" for i in bars):
         cells = [line[a + 1:b] for a, b in zip(bars, bars[1:])]
     else:
         cells = re.split(r"(?<!\\)\|", line.strip()[1:-1])

@@ -63,15 +63,37 @@ def test_a_group_over_its_limit_leaves_nothing(tmp_path):
     assert memory.cgroup_available(tmp_path / "cgroup", tmp_path / "sys") == 0
 
 
-def test_available_memory_is_at_most_what_the_cgroup_leaves(monkeypatch):
+def test_only_unlimited_groups_mean_none(tmp_path):
+    mem = tmp_path / "sys" / "memory"
+    write(tmp_path / "cgroup", "4:memory:/job\n")
+    for group in (mem, mem / "job"):
+        write(group / "memory.limit_in_bytes", "9223372036854771712\n")
+        write(group / "memory.usage_in_bytes", f"{GIB}\n")
+    assert memory.cgroup_available(tmp_path / "cgroup", tmp_path / "sys") is None
+
+
+def test_unreadable_cgroup_files_limit_nothing(tmp_path):
+    write(tmp_path / "cgroup", "0::/job\n")
+    (tmp_path / "sys" / "job").mkdir(parents=True)
+    (tmp_path / "sys" / "job" / "memory.max").write_bytes(b"\xff\xfe")
+    write(tmp_path / "sys" / "job" / "memory.current", "1\n")
+    assert memory.cgroup_available(tmp_path / "cgroup", tmp_path / "sys") is None
+
+
+def test_available_memory_is_the_lesser_of_node_and_cgroup(monkeypatch):
+    monkeypatch.setattr(memory, "node_available", lambda: 64 * GIB)
     monkeypatch.setattr(memory, "cgroup_available", lambda: 3 * GIB)
-    assert memory.available_memory() == 3 * GIB          # this machine has more than 3 GiB
+    assert memory.available_memory() == 3 * GIB
     monkeypatch.setattr(memory, "cgroup_available", lambda: 2 ** 50)
-    node = memory.available_memory()
-    assert node is not None and node < 2 ** 50
+    assert memory.available_memory() == 64 * GIB
+    monkeypatch.setattr(memory, "cgroup_available", lambda: None)
+    assert memory.available_memory() == 64 * GIB
 
 
 def test_algorithm_c_cache_default_follows_the_cgroup(monkeypatch):
     from fracfem.spacetime_adaptive import _cache_bytes
+    monkeypatch.setattr(memory, "node_available", lambda: 64 * GIB)
     monkeypatch.setattr(memory, "cgroup_available", lambda: 8 * GIB)
-    assert _cache_bytes(None) == pytest.approx(2 * GIB)
+    assert _cache_bytes(None) == 2 * GIB
+    monkeypatch.setattr(memory, "cgroup_available", lambda: 0)     # a group at its limit
+    assert _cache_bytes(None) == GIB

@@ -23,6 +23,11 @@ def test_an_aligned_table_is_cut_at_its_separators_bars():
     assert page_tables(page) == [[{"max |λ|": "2.5", "n": "3"}]]
 
 
+def test_a_row_as_long_as_the_separator_but_not_aligned_is_split_at_its_bars():
+    page = "| x | y |\n|--|----|\n| 1 | 2 |\n"
+    assert page_tables(page) == [[{"x": "1", "y": "2"}]]
+
+
 def test_lines_without_a_separator_are_not_a_table():
     page = "| a quoted line |\n\n| x | y |\n|---|---|\n| 1 | 2 |\n"
     assert page_tables(page) == [[{"x": "1", "y": "2"}]]
