@@ -130,9 +130,8 @@ def cgroup_available(proc_cgroup: str | Path = "/proc/self/cgroup",
                             "total_inactive_file"), root / "memory")
         else:
             continue
-        limit_name, usage_name, cache_key = files
         try:                  # an unreadable group limits nothing that can be known
-            found.extend(_group_room(base, path, limit_name, usage_name, cache_key))
+            found.extend(_group_room(base, path, *files))
         except (OSError, ValueError):
             continue
     return min(found) if found else None

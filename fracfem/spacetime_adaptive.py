@@ -29,6 +29,7 @@ from . import estimators
 from ._progress import Ticker
 from .adaptive import MARKINGS, _check_theta
 from .exact import check_s
+from .memory import GIB
 from .meshes import element_diameters, refine_disk
 from .parabolic import (Source, Stepper, _check_solver, _is_real, _positive,
                         _positive_int, time_steps)
@@ -502,7 +503,7 @@ def _cache_bytes(value) -> float:
     from .memory import _parse_bytes, available_memory
     if value is None:
         avail = available_memory()
-        return max(2.0 ** 30, 0.25 * avail) if avail is not None else 4.0 * 2.0 ** 30
+        return max(GIB, 0.25 * avail) if avail is not None else 4.0 * GIB
     return _parse_bytes(value, "cache_bytes")
 
 
@@ -609,7 +610,7 @@ def algorithm_c_steps(make_problem, coarse0, u0, *, T: float, theta: float,
     clock = Ticker(0.0)
     logger.info("Algorithm C: at most %d iterations on [0, %g], marking %s, theta %g, "
                 "c_tau %g, tol %s; assembled problems cached up to %.2f GiB", iterations,
-                run.T, marking, theta, c_tau, tol, cache_bytes / 2.0 ** 30)
+                run.T, marking, theta, c_tau, tol, cache_bytes / GIB)
     for it in range(first_iteration, iterations):
         t_iter = time.perf_counter()
         sweep = _sweep(run, slabs, cache, make_problem, cache_bytes)
