@@ -97,3 +97,76 @@ def test_algorithm_c_cache_default_follows_the_cgroup(monkeypatch):
     assert _cache_bytes(None) == 2 * GIB
     monkeypatch.setattr(memory, "cgroup_available", lambda: 0)     # a group at its limit
     assert _cache_bytes(None) == GIB
+
+
+def _child_memory_group(name):
+    """A new memory control group (v1 or v2) under this process's own, or None where this
+    process may not make one (no root, read-only cgroupfs, no memory controller)."""
+    import os
+    from pathlib import Path
+    if os.geteuid() != 0:
+        return None
+    try:
+        lines = Path("/proc/self/cgroup").read_text().splitlines()
+    except OSError:
+        return None
+    for line in lines:
+        ident, _, rest = line.partition(":")
+        controllers, _, path = rest.partition(":")
+        if "memory" in controllers.split(","):
+            base, limit = Path("/sys/fs/cgroup/memory"), "memory.limit_in_bytes"
+        elif ident == "0" and controllers == "":
+            base, limit = Path("/sys/fs/cgroup"), "memory.max"
+        else:
+            continue
+        own = base / path.strip("/")
+        own = own if own.is_dir() else base
+        child = own / name
+        try:
+            child.mkdir()
+        except OSError:
+            continue
+        if (child / limit).exists() and (child / "cgroup.procs").exists():
+            return child, limit
+        child.rmdir()
+    return None
+
+
+def test_a_real_memory_cgroup_is_read(tmp_path):
+    """The kernel's own files, not a made-up tree: a child process in a new memory group
+    limited to 1 GiB sees at most that, and 256 MiB it touches come off it."""
+    import os
+    import subprocess
+    import sys
+    made = _child_memory_group(f"fracfem-test-{os.getpid()}")
+    if made is None:
+        pytest.skip("no memory control group can be made here (needs root and cgroupfs)")
+    group, limit_name = made
+    try:
+        try:
+            (group / limit_name).write_text(str(GIB))
+        except OSError as err:
+            pytest.skip(f"the memory limit cannot be set: {err}")
+        code = ("import numpy as np\nfrom fracfem import memory\n"
+                "a = memory.cgroup_available()\n"
+                "x = np.ones(2 ** 28 // 8)\n"
+                "b = memory.cgroup_available()\n"
+                "print(a, b, memory.available_memory())\n"
+                "try:\n"
+                "    memory.check_dense(2 * 2 ** 30, what='W', advice='A')\n"
+                "except memory.DenseMemoryError as err:\n"
+                "    print(err)\n")
+        env = {k: v for k, v in os.environ.items() if k != memory.ENV}
+        out = subprocess.run(
+            ["sh", "-c", f'echo $$ > "{group}/cgroup.procs" && exec "$0" -c "$1"',
+             sys.executable, code], capture_output=True, text=True, timeout=300, check=True,
+            env=env)
+        numbers, _, refused = out.stdout.partition("\n")
+        before, after, available = (int(v) for v in numbers.split())
+    finally:
+        group.rmdir()
+    assert GIB - 512 * 2 ** 20 < before <= GIB       # the interpreter and numpy: < 512 MiB
+    assert 0.9 * 2 ** 28 < before - after < 1.2 * 2 ** 28
+    assert available <= after + 64 * 2 ** 20          # the group's, not the node's
+    # the dense paths' guard refuses 2 GiB in the 1 GiB group, wherever the node has room
+    assert refused.startswith("W needs about 2 GiB") and "control group" in refused
