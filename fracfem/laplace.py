@@ -18,6 +18,7 @@ from .exact import check_s
 from .opcache import dense_free_block
 from .meshes import validates
 from .preconditioners import multilevel_preconditioner
+from .solvers import cho_factor
 
 OPERATORS = ("dense", "compressed", "auto")
 # "auto": dense up to this many free nodes (and if it fits), compressed above.  At one
@@ -157,7 +158,7 @@ def solve_laplace(disc: Discretisation, *, tol: float = SOLVER_TOL,
     check_dense(8.0 * n * n, what=f"the Cholesky factor of the {n} × {n} free-node matrix",
                 advice="use a coarser mesh")
     try:
-        factor = sla.cho_factor(disc.A, lower=True, check_finite=True)
+        factor = cho_factor(disc.A, check_finite=True)
     except np.linalg.LinAlgError as err:
         raise ValueError(f"the free-node matrix is not positive definite ({err}); "
                          "is the mesh valid and s in (0, 1)?") from err

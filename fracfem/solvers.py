@@ -41,6 +41,7 @@ logger = logging.getLogger(__name__)
 
 __all__ = [
     "ConvergenceError",
+    "cho_factor",
     "cholesky_factor",
     "schur_complement",
     "schur_spectrum",
@@ -67,8 +68,63 @@ class ConvergenceError(RuntimeError):
 # ------------------------------------------------------------------ linear algebra
 
 
+# OpenBLAS's threaded dpotrf crashes (SIGSEGV in dgemm_otcopy, under dsyrk_thread_LN in
+# dpotrf_L_parallel) on large matrices: on this project's 2-core machine from n ≈ 23,000
+# with 2 threads, both with SciPy's OpenBLAS 0.3.30 and NumPy's 0.3.31, and at 1 thread not
+# (benchmarks/cholesky.md). Above BLOCKED_CHOLESKY_N, :func:`cho_factor` factorises by
+# blocks instead: LAPACK's dpotrf only on diagonal blocks of CHOLESKY_BLOCK rows, matrix
+# products and triangular solves for the rest.
+BLOCKED_CHOLESKY_N = 16384
+CHOLESKY_BLOCK = 2048
+
+
+def cho_factor(A, *, overwrite_a: bool = False, check_finite: bool = True,
+               blocked_n: int | None = None, block: int | None = None):
+    """``scipy.linalg.cho_factor(A, lower=True)`` that does not crash on large matrices.
+
+    Up to ``blocked_n`` (default :data:`BLOCKED_CHOLESKY_N`) rows it is SciPy's call itself.
+    Above, a left-looking blocked Cholesky: for each block column j (``block`` rows,
+    default :data:`CHOLESKY_BLOCK`), L[j:, j] −= L[j:, :j] L[j, :j]ᵀ (one threaded matrix
+    product, no copy of A), LAPACK's dpotrf on the diagonal block and a triangular solve
+    for the panel below it; the same flops as dpotrf and the same factor to round-off
+    (tests/test_solvers.py). Returns ``(c, True)`` for ``scipy.linalg.cho_solve``: the
+    lower triangle of ``c`` is L, its upper triangle is not to be read.
+
+    Raises ``numpy.linalg.LinAlgError`` ("k-th leading minor of the array is not positive
+    definite", k counted from 1 as SciPy's) and ``ValueError`` for infs or NaNs in its
+    lower triangle when ``check_finite``.
+    """
+    n = A.shape[0]
+    if n <= (BLOCKED_CHOLESKY_N if blocked_n is None else blocked_n):
+        return la.cho_factor(A, lower=True, overwrite_a=overwrite_a,
+                             check_finite=check_finite)
+    b = CHOLESKY_BLOCK if block is None else int(block)
+    if b < 1:
+        raise ValueError(f"block={block!r} must be an integer >= 1")
+    L = A if (overwrite_a and isinstance(A, np.ndarray) and A.dtype == np.float64
+              and A.flags.c_contiguous and A.flags.writeable) \
+        else np.array(A, dtype=np.float64, order="C")
+    for j in range(0, n, b):
+        e = min(j + b, n)
+        if check_finite and not np.isfinite(L[j:, j:e]).all():
+            raise ValueError("array must not contain infs or NaNs")
+        if j:
+            L[j:, j:e] -= L[j:, :j] @ L[j:e, :j].T
+        c, info = la.lapack.dpotrf(L[j:e, j:e], lower=1, clean=1)
+        if info > 0:
+            raise la.LinAlgError(f"{j + info}-th leading minor of the array is not "
+                                 "positive definite")
+        if info < 0:
+            raise ValueError(f"LAPACK dpotrf: illegal value in argument {-info}")
+        L[j:e, j:e] = c
+        if e < n:
+            L[e:, j:e] = la.solve_triangular(c, L[e:, j:e].T, lower=True,
+                                             check_finite=False).T
+    return L, True
+
+
 def cholesky_factor(A):
-    """Cholesky factor of the dense SPD matrix A (``scipy.linalg.cho_factor``)."""
+    """Cholesky factor of the dense SPD matrix A (:func:`cho_factor`)."""
     A = A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
     if A.ndim != 2 or A.shape[0] != A.shape[1]:
         raise ValueError(f"A must be a square matrix; got shape {A.shape}")
@@ -76,7 +132,7 @@ def cholesky_factor(A):
     check_dense(8.0 * n * n, what=f"the Cholesky factor of the {n} × {n} free-node matrix",
                 advice="use a coarser mesh")
     try:
-        return la.cho_factor(A, lower=True)
+        return cho_factor(A)
     except la.LinAlgError as err:
         raise ValueError("A must be symmetric positive definite (Cholesky "
                          f"failed: {err})") from err
@@ -641,7 +697,7 @@ def _spd_solve(S, rhs):
     pseudo-inverse picks the minimum-norm one.
     """
     try:
-        factor = la.cho_factor(S, lower=True, check_finite=False)
+        factor = cho_factor(S, check_finite=False)
         rcond, info = la.lapack.dpocon(factor[0], np.linalg.norm(S, 1), uplo="L")
         if info == 0 and rcond > PINV_RCOND:
             return la.cho_solve(factor, rhs, check_finite=False)

@@ -377,3 +377,72 @@ def test_solver_input_checks():
         pdas(A, B, f, cset, lam0=np.ones(3))
     with pytest.raises(ValueError, match="Obstacle|obstacle|g"):
         Obstacle(B, g=np.ones(3))
+
+
+# ------------------------------------------------------------------ the blocked Cholesky
+
+
+def _spd(n, seed=0):
+    rng = np.random.default_rng(seed)
+    G = rng.standard_normal((n, n))
+    return G @ G.T / n + np.eye(n)
+
+
+@pytest.mark.parametrize("block", [64, 97, 300, 1000])     # dividing n, not, n, beyond n
+def test_blocked_cholesky_is_scipys_factor(block):
+    from fracfem.solvers import cho_factor
+    A = _spd(300)
+    c, lower = cho_factor(A, blocked_n=0, block=block)
+    ref, _ = la.cho_factor(A, lower=True)
+    assert lower is True and c is not A
+    assert np.allclose(np.tril(c), np.tril(ref), rtol=0, atol=1e-13 * np.abs(ref).max())
+    b = np.arange(300.0)
+    assert np.allclose(A @ la.cho_solve((c, True), b), b, rtol=0, atol=1e-10)
+
+
+def test_blocked_cholesky_in_place_and_below_its_size_scipys_own():
+    from fracfem.solvers import cho_factor
+    A = _spd(200, 1)
+    work = A.copy()
+    c, _ = cho_factor(work, overwrite_a=True, blocked_n=0, block=50)
+    assert c is work                                       # no copy of A
+    small, _ = cho_factor(A)                               # 200 rows: scipy's call itself
+    assert np.array_equal(np.tril(small), np.tril(la.cho_factor(A, lower=True)[0]))
+
+
+def test_blocked_cholesky_names_the_minor_as_scipy_does():
+    from fracfem.solvers import cho_factor
+    A = _spd(120, 2)
+    A[70, 70] = -1.0                                       # the 71st leading minor fails
+    with pytest.raises(np.linalg.LinAlgError) as ours:
+        cho_factor(A, blocked_n=0, block=32)
+    with pytest.raises(np.linalg.LinAlgError) as scipys:
+        la.cho_factor(A, lower=True)
+    assert str(ours.value) == str(scipys.value)
+    assert str(ours.value).startswith("71-th leading minor")
+    A = _spd(120, 2)
+    A[100, 3] = np.nan                                     # in the lower triangle
+    with pytest.raises(ValueError, match="infs or NaNs"):
+        cho_factor(A, blocked_n=0, block=32)
+
+
+def test_the_dense_solvers_factor_large_matrices_by_blocks(monkeypatch):
+    """solve_laplace and cholesky_factor (the VI and parabolic solvers' factor) go through
+    cho_factor: made to block from 0 rows on, their solutions are the same."""
+    import fracfem as ff
+    from fracfem import solvers
+    disc = ff.Example1(0.5).problem(ff.disk_uniform(3))
+    u = ff.solve_laplace(disc)
+    factor = solvers.cholesky_factor(disc.A)
+    calls = []
+    blocked = solvers.cho_factor
+
+    def spy(*args, **kwargs):
+        calls.append(args[0].shape[0])
+        return blocked(*args, blocked_n=0, block=16, **kwargs)
+    monkeypatch.setattr(solvers, "cho_factor", spy)
+    monkeypatch.setattr(ff.laplace, "cho_factor", spy)
+    assert np.allclose(ff.solve_laplace(disc), u, rtol=1e-12, atol=0)
+    assert np.allclose(solvers.cholesky_factor(disc.A)[0].diagonal(), factor[0].diagonal(),
+                       rtol=1e-12, atol=0)
+    assert calls == [len(u), len(u)]

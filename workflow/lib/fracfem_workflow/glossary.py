@@ -490,6 +490,17 @@ GROUPS = [
         "dense_over_compressed": "`dense_total_s` / `compressed_total_s`",
         "u_rel_diff": "max |u_dense − u_compressed| / max |u_dense|",
     }),
+    ("Dense Cholesky at large n (`benchmarks/cholesky.md`)", False, {
+        "rows": "rows (and columns) of the symmetric positive definite matrix",
+        "factorisation": "`scipy`: `scipy.linalg.cho_factor` (LAPACK dpotrf); `blocked`: "
+                         "`fracfem.solvers.cho_factor` by blocks, as fracfem factorises above "
+                         "`BLOCKED_CHOLESKY_N` rows",
+        "exit": "how the child process that factorised ended: `ok`, or the signal that "
+                "ended it (`SIGSEGV`: a crash inside OpenBLAS)",
+        "factor_s": "wall seconds of the factorisation alone",
+        "relative_residual": "‖Ax − b‖ / ‖b‖ of the solve with the factor",
+        "child_peak_mb": "peak resident memory of the child process, MB",
+    }),
     ("PCG with the multilevel preconditioner (`benchmarks/pcg.md`)", False, {
         "mesh": "the mesh, as the fracfem call that makes it",
         "condition": "condition estimate of the preconditioned operator: the ratio of "
