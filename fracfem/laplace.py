@@ -18,7 +18,7 @@ from .exact import check_s
 from .opcache import dense_free_block
 from .meshes import validates
 from .preconditioners import multilevel_preconditioner
-from .solvers import cho_factor
+from .solvers import cho_factor, cho_factor_bytes
 
 OPERATORS = ("dense", "compressed", "auto")
 # "auto": dense up to this many free nodes (and if it fits), compressed above.  At one
@@ -155,7 +155,8 @@ def solve_laplace(disc: Discretisation, *, tol: float = SOLVER_TOL,
         return u
     t0 = time.perf_counter()
     n = len(disc.A)
-    check_dense(8.0 * n * n, what=f"the Cholesky factor of the {n} × {n} free-node matrix",
+    check_dense(cho_factor_bytes(n),
+                what=f"the Cholesky factor of the {n} × {n} free-node matrix",
                 advice="use a coarser mesh")
     try:
         factor = cho_factor(disc.A, check_finite=True)

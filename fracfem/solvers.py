@@ -70,10 +70,11 @@ class ConvergenceError(RuntimeError):
 
 # OpenBLAS's threaded dpotrf crashes (SIGSEGV in dgemm_otcopy, under dsyrk_thread_LN in
 # dpotrf_L_parallel) on large matrices: on this project's 2-core machine from n ≈ 23,000
-# with 2 threads, both with SciPy's OpenBLAS 0.3.30 and NumPy's 0.3.31, and at 1 thread not
-# (benchmarks/cholesky.md). Above BLOCKED_CHOLESKY_N, :func:`cho_factor` factorises by
-# blocks instead: LAPACK's dpotrf only on diagonal blocks of CHOLESKY_BLOCK rows, matrix
-# products and triangular solves for the rest.
+# with 2 threads, both with SciPy's OpenBLAS 0.3.30 and NumPy's 0.3.31 (benchmarks/
+# cholesky.md; reported elsewhere at other sizes and thread counts). Above
+# BLOCKED_CHOLESKY_N, :func:`cho_factor` factorises by blocks instead: LAPACK's dpotrf only
+# on diagonal blocks of CHOLESKY_BLOCK rows, matrix products and triangular solves for the
+# rest.
 BLOCKED_CHOLESKY_N = 16384
 CHOLESKY_BLOCK = 2048
 
@@ -87,20 +88,30 @@ def cho_factor(A, *, overwrite_a: bool = False, check_finite: bool = True,
     default :data:`CHOLESKY_BLOCK`), L[j:, j] −= L[j:, :j] L[j, :j]ᵀ (one threaded matrix
     product, no copy of A), LAPACK's dpotrf on the diagonal block and a triangular solve
     for the panel below it; the same flops as dpotrf and the same factor to round-off
-    (tests/test_solvers.py). Returns ``(c, True)`` for ``scipy.linalg.cho_solve``: the
-    lower triangle of ``c`` is L, its upper triangle is not to be read.
+    (tests/test_solvers.py). It works on a row-major copy of A (on A itself with
+    ``overwrite_a`` when A is a row-major float64 array) and needs 8·n·block bytes more.
+
+    Returns ``(c, lower)`` for ``scipy.linalg.cho_solve`` and LAPACK: SciPy's ``(c, True)``
+    up to ``blocked_n``, else ``(Lᵀ, False)``: the blocked factor's transpose, column-major
+    as LAPACK's own, so that a solve copies nothing; the triangle other than ``lower``'s is
+    not to be read.
 
     Raises ``numpy.linalg.LinAlgError`` ("k-th leading minor of the array is not positive
-    definite", k counted from 1 as SciPy's) and ``ValueError`` for infs or NaNs in its
-    lower triangle when ``check_finite``.
+    definite", k counted from 1 as SciPy's) and, when ``check_finite``, ``ValueError`` for
+    infs or NaNs (blocked: in the lower triangle and the diagonal blocks, all it reads).
     """
+    if A.ndim != 2 or A.shape[0] != A.shape[1]:
+        raise ValueError(f"A must be a square matrix; got shape {A.shape}")
+    if np.iscomplexobj(A):
+        raise ValueError("A must be real (fracfem's matrices are)")
     n = A.shape[0]
     if n <= (BLOCKED_CHOLESKY_N if blocked_n is None else blocked_n):
         return la.cho_factor(A, lower=True, overwrite_a=overwrite_a,
                              check_finite=check_finite)
-    b = CHOLESKY_BLOCK if block is None else int(block)
-    if b < 1:
+    if isinstance(block, bool) or not isinstance(block, (int, np.integer, type(None))) \
+            or (block is not None and block < 1):
         raise ValueError(f"block={block!r} must be an integer >= 1")
+    b = CHOLESKY_BLOCK if block is None else int(block)
     L = A if (overwrite_a and isinstance(A, np.ndarray) and A.dtype == np.float64
               and A.flags.c_contiguous and A.flags.writeable) \
         else np.array(A, dtype=np.float64, order="C")
@@ -115,12 +126,19 @@ def cho_factor(A, *, overwrite_a: bool = False, check_finite: bool = True,
             raise la.LinAlgError(f"{j + info}-th leading minor of the array is not "
                                  "positive definite")
         if info < 0:
-            raise ValueError(f"LAPACK dpotrf: illegal value in argument {-info}")
+            raise ValueError(f"LAPACK reported an illegal value in {-info}-th argument on "
+                             'entry to "POTRF".')
         L[j:e, j:e] = c
         if e < n:
             L[e:, j:e] = la.solve_triangular(c, L[e:, j:e].T, lower=True,
                                              check_finite=False).T
-    return L, True
+    return L.T, False
+
+
+def cho_factor_bytes(n: int) -> float:
+    """Bytes :func:`cho_factor` allocates for an n × n matrix not overwritten: the factor,
+    and above :data:`BLOCKED_CHOLESKY_N` rows one block column's product besides."""
+    return 8.0 * n * n + (8.0 * n * CHOLESKY_BLOCK if n > BLOCKED_CHOLESKY_N else 0.0)
 
 
 def cholesky_factor(A):
@@ -129,7 +147,8 @@ def cholesky_factor(A):
     if A.ndim != 2 or A.shape[0] != A.shape[1]:
         raise ValueError(f"A must be a square matrix; got shape {A.shape}")
     n = A.shape[0]
-    check_dense(8.0 * n * n, what=f"the Cholesky factor of the {n} × {n} free-node matrix",
+    check_dense(cho_factor_bytes(n),
+                what=f"the Cholesky factor of the {n} × {n} free-node matrix",
                 advice="use a coarser mesh")
     try:
         return cho_factor(A)
@@ -698,7 +717,8 @@ def _spd_solve(S, rhs):
     """
     try:
         factor = cho_factor(S, check_finite=False)
-        rcond, info = la.lapack.dpocon(factor[0], np.linalg.norm(S, 1), uplo="L")
+        rcond, info = la.lapack.dpocon(factor[0], np.linalg.norm(S, 1),
+                                       uplo="L" if factor[1] else "U")
         if info == 0 and rcond > PINV_RCOND:
             return la.cho_solve(factor, rhs, check_finite=False)
     except la.LinAlgError:

@@ -388,26 +388,50 @@ def _spd(n, seed=0):
     return G @ G.T / n + np.eye(n)
 
 
-@pytest.mark.parametrize("block", [64, 97, 300, 1000])     # dividing n, not, n, beyond n
+@pytest.mark.parametrize("block", [64, 97, 299, 300])      # dividing n, not, n − 1, n
 def test_blocked_cholesky_is_scipys_factor(block):
     from fracfem.solvers import cho_factor
     A = _spd(300)
     c, lower = cho_factor(A, blocked_n=0, block=block)
     ref, _ = la.cho_factor(A, lower=True)
-    assert lower is True and c is not A
-    assert np.allclose(np.tril(c), np.tril(ref), rtol=0, atol=1e-13 * np.abs(ref).max())
+    assert lower is False and c.flags.f_contiguous       # Lᵀ, in LAPACK's own order
+    assert np.allclose(np.triu(c), np.tril(ref).T, rtol=0, atol=1e-13 * np.abs(ref).max())
     b = np.arange(300.0)
-    assert np.allclose(A @ la.cho_solve((c, True), b), b, rtol=0, atol=1e-10)
+    assert np.allclose(A @ la.cho_solve((c, lower), b), b, rtol=0, atol=1e-10)
 
 
-def test_blocked_cholesky_in_place_and_below_its_size_scipys_own():
+def test_blocked_cholesky_in_place():
     from fracfem.solvers import cho_factor
     A = _spd(200, 1)
     work = A.copy()
-    c, _ = cho_factor(work, overwrite_a=True, blocked_n=0, block=50)
-    assert c is work                                       # no copy of A
-    small, _ = cho_factor(A)                               # 200 rows: scipy's call itself
-    assert np.array_equal(np.tril(small), np.tril(la.cho_factor(A, lower=True)[0]))
+    c, lower = cho_factor(work, overwrite_a=True, blocked_n=0, block=50)
+    assert np.shares_memory(c, work) and c.shape == A.shape           # no copy of A
+    ref, _ = la.cho_factor(A, lower=True)
+    assert np.allclose(np.triu(c), np.tril(ref).T, rtol=0, atol=1e-13 * np.abs(ref).max())
+    with pytest.raises(ValueError, match="block=0 must be"):
+        cho_factor(A, blocked_n=0, block=0)
+    with pytest.raises(ValueError, match="square"):
+        cho_factor(A[:, :10])
+
+
+def test_the_pdas_blocks_solve_through_the_blocked_factor(monkeypatch):
+    """_spd_solve (PDAS's blocks of S) reads the condition estimate from whichever
+    triangle the factor holds."""
+    from fracfem import solvers
+    S, rhs = _spd(150, 3), np.linspace(-1.0, 1.0, 150)
+    anorm = np.linalg.norm(S, 1)
+    expected = la.lapack.dpocon(la.cho_factor(S, lower=True)[0], anorm, uplo="L")[0]
+    blocked, dpocon, seen = solvers.cho_factor, la.lapack.dpocon, []
+
+    def spy(c, norm, uplo):
+        out = dpocon(c, norm, uplo=uplo)
+        seen.append(out[0])
+        return out
+    monkeypatch.setattr(solvers, "cho_factor",
+                        lambda *a, **k: blocked(*a, blocked_n=0, block=40, **k))
+    monkeypatch.setattr(solvers.la.lapack, "dpocon", spy)
+    assert np.allclose(S @ solvers._spd_solve(S, rhs), rhs, rtol=0, atol=1e-11)
+    assert len(seen) == 1 and np.isclose(seen[0], expected, rtol=1e-10)
 
 
 def test_blocked_cholesky_names_the_minor_as_scipy_does():
@@ -443,6 +467,8 @@ def test_the_dense_solvers_factor_large_matrices_by_blocks(monkeypatch):
     monkeypatch.setattr(solvers, "cho_factor", spy)
     monkeypatch.setattr(ff.laplace, "cho_factor", spy)
     assert np.allclose(ff.solve_laplace(disc), u, rtol=1e-12, atol=0)
-    assert np.allclose(solvers.cholesky_factor(disc.A)[0].diagonal(), factor[0].diagonal(),
-                       rtol=1e-12, atol=0)
+    blocked_factor = solvers.cholesky_factor(disc.A)
+    assert blocked_factor[1] is False
+    assert np.allclose(np.triu(blocked_factor[0]), np.tril(factor[0]).T, rtol=0,
+                       atol=1e-12 * np.abs(factor[0]).max())
     assert calls == [len(u), len(u)]

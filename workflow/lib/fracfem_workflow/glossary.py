@@ -498,7 +498,13 @@ GROUPS = [
         "exit": "how the child process that factorised ended: `ok`, or the signal that "
                 "ended it (`SIGSEGV`: a crash inside OpenBLAS)",
         "factor_s": "wall seconds of the factorisation alone",
+        "solve_s": "wall seconds of one solve with the factor (`scipy.linalg.cho_solve`)",
         "relative_residual": "‖Ax − b‖ / ‖b‖ of the solve with the factor",
+        "matrix_mb": "one n × n matrix of float64, MB",
+        "factor_extra_mb": "resident memory the factorisation adds to the matrix it "
+                           "factorises in place, MB",
+        "solve_extra_mb": "resident memory the solve adds beyond the factorisation's peak, "
+                          "MB (a copy of the factor would show here)",
         "child_peak_mb": "peak resident memory of the child process, MB",
     }),
     ("PCG with the multilevel preconditioner (`benchmarks/pcg.md`)", False, {
