@@ -100,6 +100,7 @@ def cho_factor(A, *, overwrite_a: bool = False, check_finite: bool = True,
     definite", k counted from 1 as SciPy's) and, when ``check_finite``, ``ValueError`` for
     infs or NaNs (blocked: in the lower triangle and the diagonal blocks, all it reads).
     """
+    A = A if isinstance(A, np.ndarray) else np.asarray(A)
     if A.ndim != 2 or A.shape[0] != A.shape[1]:
         raise ValueError(f"A must be a square matrix; got shape {A.shape}")
     if np.iscomplexobj(A):
