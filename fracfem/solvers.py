@@ -113,9 +113,8 @@ def cho_factor(A, *, overwrite_a: bool = False, check_finite: bool = True,
             or (block is not None and block < 1):
         raise ValueError(f"block={block!r} must be an integer >= 1")
     b = CHOLESKY_BLOCK if block is None else int(block)
-    L = A if (overwrite_a and isinstance(A, np.ndarray) and A.dtype == np.float64
-              and A.flags.c_contiguous and A.flags.writeable) \
-        else np.array(A, dtype=np.float64, order="C")
+    L = A if (overwrite_a and A.dtype == np.float64 and A.flags.c_contiguous
+              and A.flags.writeable) else np.array(A, dtype=np.float64, order="C")
     for j in range(0, n, b):
         e = min(j + b, n)
         if check_finite and not np.isfinite(L[j:, j:e]).all():
