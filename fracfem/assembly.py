@@ -103,14 +103,25 @@ class QuadratureOptions:
             raise ValueError(f"QuadratureOptions.far_thresholds={self.far_thresholds!r} must "
                              "be positive and decreasing (farthest class first)")
 
-    def raised(self) -> "QuadratureOptions":
-        """Every order raised: for quadrature-convergence checks."""
+    def raised(self, keep_taylor: bool = False) -> "QuadratureOptions":
+        """Every order raised: for quadrature-convergence checks.
+
+        keep_taylor: keep the Taylor rule (far_orders[0] = 0) for the farthest class, which
+        then starts at twice its separation ratio, as every other class does: the compressed
+        operator needs it there (its far field is the Taylor rule's kernel expansion).  By
+        default the farthest class gets a Gauss rule too.
+        """
+        if not isinstance(keep_taylor, (bool, np.bool_)):
+            raise ValueError(f"keep_taylor={keep_taylor!r} must be True or False")
+        orders = tuple(min(max(2 * o, 2), 12) for o in self.far_orders)
+        if keep_taylor and self.far_orders[0] == 0:
+            orders = (0,) + orders[1:]
         return replace(
             self,
             coincident=2 * self.coincident,
             edge=self.edge + 4,
             vertex=self.vertex + 3,
-            far_orders=tuple(min(max(2 * o, 2), 12) for o in self.far_orders),
+            far_orders=orders,
             far_thresholds=tuple(2.0 * r for r in self.far_thresholds),
             kappa_order=min(2 * self.kappa_order, 19),
             kappa_layers=2 * self.kappa_layers,

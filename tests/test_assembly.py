@@ -12,6 +12,7 @@ Measured agreement (see the asserts for the tolerances):
 """
 
 import functools
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -663,6 +664,22 @@ def test_quadrature_options_are_validated(kwargs, match):
         return
     with pytest.raises(ValueError, match=match):
         QuadratureOptions(**kwargs)
+
+
+def test_raised_keeping_the_taylor_rule():
+    """raised(keep_taylor=True) differs from raised() only in the farthest class's rule,
+    which stays the Taylor rule (order 0) from twice its ratio, as the compressed operator
+    needs; options without a Taylor class raise as raised() does; a non-boolean is refused."""
+    plain, kept = DEFAULT.raised(), DEFAULT.raised(keep_taylor=True)
+    assert DEFAULT.far_orders[0] == 0 and plain.far_orders[0] == 2 and kept.far_orders[0] == 0
+    assert kept.far_orders[1:] == plain.far_orders[1:]
+    assert kept.far_thresholds == plain.far_thresholds == tuple(2 * r for r in
+                                                                 DEFAULT.far_thresholds)
+    assert replace(kept, far_orders=plain.far_orders) == plain
+    gauss = QuadratureOptions(far_orders=(2, 4), far_thresholds=(4.0,))
+    assert gauss.raised(keep_taylor=True) == gauss.raised()
+    with pytest.raises(ValueError, match="keep_taylor='yes'"):
+        DEFAULT.raised(keep_taylor="yes")
 
 
 # ---------------------------------------------------------------------------

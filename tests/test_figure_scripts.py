@@ -1467,3 +1467,30 @@ def test_vi_adaptive_distances_measures_every_step_against_the_unchanged_series_
     ref = d[(d.case == "as configured") & (d.step == d.reference_step)]
     assert len(ref) == 1 and ref.distance.iloc[0] < 1e-10
     assert (d.distance.drop(ref.index) > 1e-3).all() and (d.dip >= 0).all()
+
+
+@pytest.mark.parametrize("operator", ["dense", "compressed"])
+def test_example1_run_and_its_quadrature_check_keep_the_operator(tmp_path, operator):
+    """ex1_solve records the operator it used (config example1.operator) and the quadrature
+    check repeats the run with that operator: the compressed one with its Taylor rule kept
+    (raised(keep_taylor=True)), which the plain raised() rules would make it refuse. Both
+    energies lie below the exact one, and the compressed run's lies within 1e-4 of the
+    squared error of the dense one's."""
+    solve, check = script("ex1_solve"), script("ex1_quadrature")
+    quad = {"far_orders": [0, 2, 4, 8], "far_thresholds": [8.0, 4.0, 2.0]}
+    rows = {}
+    for op in {"dense", operator}:
+        rows[op] = tmp_path / f"{op}.csv"
+        solve.main("graded", "h0.2", 0.5, 2.0, quad, rows[op], tmp_path / f"{op}.npz",
+                   operator=op)
+    run = pd.read_csv(rows[operator]).iloc[0]
+    dense = pd.read_csv(rows["dense"]).iloc[0]
+    assert run.operator == operator and run.operator_setting == operator
+    assert (run.pcg_iterations > 0) == (operator == "compressed")
+    err2 = dense.fu_exact - dense.fu_h
+    assert 0 < err2 and abs(run.fu_h - dense.fu_h) < 1e-4 * err2
+    check.main("graded", "h0.2", 2.0, quad, rows[operator], tmp_path / "check.csv")
+    out = pd.read_csv(tmp_path / "check.csv").iloc[0]
+    assert out.operator == operator
+    assert json.loads(out.quadrature_far_orders)[0] == (0 if operator == "compressed" else 2)
+    assert out.change_over_error_squared < 0.01

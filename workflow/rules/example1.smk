@@ -12,6 +12,7 @@ rule ex1_solve:
     params:
         grading=GRADING,
         quadrature=QUADRATURE,
+        operator=EX1["operator"],
     threads: JOB_THREADS
     conda:
         ENV

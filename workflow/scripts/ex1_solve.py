@@ -14,7 +14,10 @@ from fracfem_workflow.runs import parameter_columns, start
 logger = script_logger("ex1_solve")
 
 
-def main(family, tag, s, grading, quadrature, row, npz, log=None, threads=None):
+def main(family, tag, s, grading, quadrature, row, npz, log=None, threads=None,
+         operator="dense"):
+    """operator: 'dense', 'compressed' or 'auto' (dense up to 2,000 free nodes, compressed
+    above; the row's ``operator`` is the one used)."""
     start(log, threads)
     quad = ff.QuadratureOptions(**quadrature)
     example = ff.Example1(s)
@@ -23,7 +26,7 @@ def main(family, tag, s, grading, quadrature, row, npz, log=None, threads=None):
     t_mesh = time.perf_counter() - t0
     logger.info("ex1 %s s=%g %s: %d triangles, %d free nodes; assembling", family, example.s,
                 tag, mesh.t.shape[1], len(mesh.interior_nodes()))
-    disc = example.problem(mesh, quad)
+    disc = example.problem(mesh, quad, operator=operator)
     u = ff.solve_laplace(disc)
     fu = float(disc.b @ u)
     exact = ff.disk_energy(example.s)
@@ -39,10 +42,12 @@ def main(family, tag, s, grading, quadrature, row, npz, log=None, threads=None):
         "t_solve": disc.timings["solve"],
         "t_total": t_mesh + disc.timings["assembly"] + disc.timings["solve"],
         "threads": numba.get_num_threads(), "peak_mem_mb": peak_memory_mb(),
-        **parameter_columns(quadrature=quad), **provenance(),
+        "operator": disc.info["operator"],
+        "pcg_iterations": disc.info.get("iterations", 0),   # 0: Cholesky
+        **parameter_columns(quadrature=quad, operator_setting=operator), **provenance(),
     }
-    logger.info("ex1 %s s=%g %s: %d dofs, error %.4e, %.1f s", family, example.s, tag,
-                result["dofs"], result["error"], result["t_total"])
+    logger.info("ex1 %s s=%g %s: %d dofs, %s operator, error %.4e, %.1f s", family, example.s,
+                tag, result["dofs"], result["operator"], result["error"], result["t_total"])
     save_arrays(npz, p=mesh.p, t=mesh.t, u=disc.extend(u), s=example.s)
     write_table(pd.DataFrame([result]), row)
 
@@ -51,4 +56,4 @@ if __name__ == "__main__":
     main(snakemake.wildcards.family, snakemake.wildcards.tag,  # noqa: F821
          float(snakemake.wildcards.s), snakemake.params.grading,  # noqa: F821
          snakemake.params.quadrature, snakemake.output.row, snakemake.output.npz,  # noqa: F821
-         snakemake.log[0], snakemake.threads)  # noqa: F821
+         snakemake.log[0], snakemake.threads, snakemake.params.operator)  # noqa: F821

@@ -115,6 +115,9 @@ GROUPS = [
         "error_squared": "(f,u) − (f,u_h), the squared energy error",
         "change_over_error_squared": "|`change`| / `error_squared`: must be far below 1",
         "t_assembly_raised": "assembly seconds with the raised orders",
+        "operator": "the stiffness of the run and of its raised repeat: `dense` (the matrix) or "
+                    "`compressed` (`example1.operator`; the raised repeat keeps the compression's "
+                    "tolerance, so that the change is the quadrature's)",
     }),
     ("Reference energies (`elliptic-errors.md`)", False, {
         "reference": "where E_ref comes from: `exact`, `exact (pure slip)`, "
@@ -592,7 +595,8 @@ GROUPS = [
         "energy_error": "E − E_h: exact energy minus (f, u_h) with the rules of config.yaml",
         "change_R4": "|E_h(R = 4) − E_h(R = 8)|",
         "change_raised": "|E_h(raised rules) − E_h(R = 8)|: every singular and near rule "
-                         "raised, the Taylor rule kept from ratio 8",
+                         "raised, the Taylor rule kept for the farthest class, which starts "
+                         "at ratio 16 (`QuadratureOptions.raised(keep_taylor=True)`)",
         "error_over_change_R4": "|energy_error| / change_R4",
     }),
     ("Bad input (`bad-inputs.md`)", False, {
