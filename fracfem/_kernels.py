@@ -174,9 +174,9 @@ def separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw, lam, offsets
 
 
 @njit(cache=True, parallel=True)
-def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
-              taylor, s, nv, nchunks):  # pragma: no cover
-    """All non-touching element pairs with product Gauss rules.
+def far_pairs(A, t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
+              taylor, s, order, class_ptr, nchunks):  # pragma: no cover
+    """All non-touching element pairs with product Gauss rules, added to A.
 
     The rule of a pair is chosen from its separation ratio
     |c_T − c_T'| / max(diam_T, diam_T'): level L (points
@@ -185,12 +185,19 @@ def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
     If ``taylor`` is true, level 0 is the Taylor-corrected centroid rule (area,
     second moments mom = (Ixx, Ixy, Iyy) about the centroid, gradients of
     the barycentric coordinates grad (nt, 3, 2)).
-    Returns the off-diagonal part X (nchunks, nv, nv), to be summed over
-    chunks and added to its transpose, and D (nchunks, nt, nq_total + 4):
+
+    Adds the one-sided off-diagonal part X to A (nv, nv): pair (T, T') with
+    T < T' adds to the entries (t[T, a], t[T', b]), the rows of T's nodes;
+    A + Aᵀ (:func:`add_transpose_inplace`) then gives the symmetric part.  The
+    elements come in classes order[class_ptr[k]:class_ptr[k+1]] (ascending),
+    no two elements of a class sharing a node (:func:`fracfem.assembly.element_classes`),
+    taken one after the other; ``nchunks`` threads share each class, so no two
+    threads write one row of A at a time, and every entry receives its terms in
+    the same order whatever ``nchunks``.  Returns D (nchunks, nt, nq_total + 4):
     per quadrature point q of T, Σ_r W_qr, from which the diagonal blocks
-    Σ_q D_q λ_a(x_q) λ_b(x_q) follow; for the Taylor level D[:, :, 0:4]
-    hold ΣC0, Σα (2) and Σ k|T'| instead (see assembly.py).  Chunks own
-    private copies: no write races.
+    Σ_q D_q λ_a(x_q) λ_b(x_q) follow; for the Taylor level D[:, :, 0:4] hold
+    ΣC0, Σα (2) and Σ k|T'| instead (see assembly.py).  D is per thread: a pair
+    writes the rows of both its elements there.
     """
     nt = t.shape[0]
     nlev = offsets.shape[0] - 1
@@ -198,27 +205,56 @@ def far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets, thresholds,
     expo = -1.0 - s
     alpha = -2.0 - 2.0 * s
     _check_rule_sizes(offsets)
-    X = np.zeros((nchunks, nv, nv))
+    if nchunks < 1:
+        raise ValueError("nchunks must be positive")
     D = np.zeros((nchunks, nt, nqt + 4))
+    W_all = np.empty((nchunks, MAX_RULE_POINTS, MAX_RULE_POINTS))
+    V_all = np.empty((nchunks, 3, MAX_RULE_POINTS))
+    X_all = np.empty((nchunks, 3, 3))
+    for k in range(class_ptr.shape[0] - 1):
+        lo = class_ptr[k]
+        hi = class_ptr[k + 1]
+        for c in prange(nchunks):
+            W = W_all[c]
+            V = V_all[c]
+            Xl = X_all[c]
+            for idx in range(lo + c, hi, nchunks):
+                T = order[idx]
+                i0, i1, i2 = t[T, 0], t[T, 1], t[T, 2]
+                for T2 in range(T + 1, nt):
+                    j0, j1, j2 = t[T2, 0], t[T2, 1], t[T2, 2]
+                    if (i0 == j0 or i0 == j1 or i0 == j2 or i1 == j0 or i1 == j1
+                            or i1 == j2 or i2 == j0 or i2 == j1 or i2 == j2):
+                        continue
+                    lev, dx, dy, r2 = pair_level(T, T2, cent, diam, thresholds, nlev)
+                    separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw, lam,
+                                   offsets, taylor, expo, alpha, D, c, W, V, Xl)
+                    for a in range(3):
+                        ia = t[T, a]
+                        for b in range(3):
+                            A[ia, t[T2, b]] += Xl[a, b]
+    return D
+
+
+@njit(cache=True, parallel=True)
+def add_transpose_inplace(A, nchunks):  # pragma: no cover
+    """A ← A + Aᵀ in place, in 64 × 64 tiles: the tile pair (I, J), I ≤ J, is
+    summed and written by one thread alone (interleaved rows of tiles per thread,
+    as the work per row of tiles falls with I)."""
+    n = A.shape[0]
+    nb = (n + 63) // 64
     for c in prange(nchunks):
-        W = np.empty((MAX_RULE_POINTS, MAX_RULE_POINTS))
-        V = np.empty((3, MAX_RULE_POINTS))
-        Xl = np.empty((3, 3))
-        for T in range(c, nt, nchunks):
-            i0, i1, i2 = t[T, 0], t[T, 1], t[T, 2]
-            for T2 in range(T + 1, nt):
-                j0, j1, j2 = t[T2, 0], t[T2, 1], t[T2, 2]
-                if (i0 == j0 or i0 == j1 or i0 == j2 or i1 == j0 or i1 == j1
-                        or i1 == j2 or i2 == j0 or i2 == j1 or i2 == j2):
-                    continue
-                lev, dx, dy, r2 = pair_level(T, T2, cent, diam, thresholds, nlev)
-                separated_pair(T, T2, lev, dx, dy, r2, area, mom, grad, qx, qw, lam,
-                               offsets, taylor, expo, alpha, D, c, W, V, Xl)
-                for a in range(3):
-                    ia = t[T, a]
-                    for b in range(3):
-                        X[c, ia, t[T2, b]] += Xl[a, b]
-    return X, D
+        for I in range(c, nb, nchunks):
+            i0 = I * 64
+            i1 = min(n, i0 + 64)
+            for J in range(I, nb):
+                j0 = J * 64
+                j1 = min(n, j0 + 64)
+                for i in range(i0, i1):
+                    for j in range(max(j0, i) if I == J else j0, j1):
+                        v = A[i, j] + A[j, i]
+                        A[i, j] = v
+                        A[j, i] = v
 
 
 @njit(cache=True, parallel=True)
@@ -349,30 +385,11 @@ def scatter_local(A, nodes, local, factor):  # pragma: no cover
 
 
 @njit(cache=True, parallel=True)
-def sum_chunks_symmetric(X, A):  # pragma: no cover
-    """A += S + Sᵀ with S = Σ_c X[c], in 64 × 64 tiles (cache-friendly)."""
-    nch, n, _ = X.shape
-    nb = (n + 63) // 64
-    for I in prange(nb):
-        i0 = I * 64
-        i1 = min(n, i0 + 64)
-        for J in range(nb):
-            j0 = J * 64
-            j1 = min(n, j0 + 64)
-            for i in range(i0, i1):
-                for j in range(j0, j1):
-                    acc = 0.0
-                    for c in range(nch):
-                        acc += X[c, i, j] + X[c, j, i]
-                    A[i, j] += acc
-
-
-@njit(cache=True, parallel=True)
 def kernel_floor(cent, s, nchunks):  # pragma: no cover
     """Σ over unordered element pairs of |c_T − c_T'|^(−2−2s): the cost floor.
 
-    Same loop structure as :func:`far_pairs` (interleaved chunks), one kernel
-    evaluation per pair and no matrix writes.
+    The pairs :func:`far_pairs` visits (interleaved elements per chunk here), one
+    kernel evaluation per pair and no matrix writes.
     """
     nt = cent.shape[0]
     expo = -1.0 - s

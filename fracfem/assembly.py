@@ -555,14 +555,15 @@ def _kappa_near_boundary(p, t, els, boundary_nodes, edges, s, quad, diam, kappa=
 
 
 def dense_bytes(nv: int, nt: int, nchunks: int, quad: QuadratureOptions | None = None) -> float:
-    """Peak bytes of :func:`stiffness_matrix`: the N × N matrix, one N × N far-field
-    copy per chunk (:func:`fracfem._kernels.far_pairs`) and O(Nt) work arrays."""
+    """Peak bytes of :func:`stiffness_matrix`: the N × N matrix, into which the far field
+    is assembled in place (:func:`fracfem._kernels.far_pairs`), and O(Nt) work arrays,
+    some per chunk."""
     quad = quad or QuadratureOptions()
     nq = sum(len(triangle_rule(max(o, 1))[1]) for o in quad.far_orders)
     # per element: far-field sums D per chunk, rule points and weights (built twice),
-    # and a generous 4 KiB for the singular local blocks and the κ rules
+    # and a generous 4 KiB for the singular local blocks, the κ rules and the classes
     per_element = 8.0 * (nchunks * (nq + 4) + 6 * nq) + 4096.0
-    return 8.0 * nv * nv * (1 + nchunks) + per_element * nt
+    return 8.0 * nv * nv + per_element * nt
 
 
 def _check_dense_memory(nv, nt, nchunks, quad, limit):
@@ -570,20 +571,59 @@ def _check_dense_memory(nv, nt, nchunks, quad, limit):
     advice = "use a coarser mesh"
     avail, _ = memory.memory_limit(limit)
     if avail is not None:
-        linear = dense_bytes(nv, nt, nchunks, quad) - 8.0 * nv * nv * (1 + nchunks)
-        fit = int(np.sqrt(max(avail - linear, 0.0) / (8.0 * (1 + nchunks))))
+        linear = dense_bytes(nv, nt, nchunks, quad) - 8.0 * nv * nv
+        fit = int(np.sqrt(max(avail - linear, 0.0) / 8.0))
         if fit >= 3:
-            advice += f" (about N = {fit} nodes fit with nchunks={nchunks})"
-        serial = dense_bytes(nv, nt, 1, quad)
-        if nchunks > 1 and serial <= avail:
-            advice += (f", or nchunks=1 (one far-field copy, serial far field: "
-                       f"{serial / memory.GIB:.3g} GiB)")
+            advice += f" (about N = {fit} nodes fit)"
     advice += (", or the compressed operator (fracfem.stiffness_operator, or "
                "discretise(..., operator='compressed'))")
     memory.check_dense(dense_bytes(nv, nt, nchunks, quad),
                        what=f"the dense stiffness matrix for N = {nv} nodes "
                             f"({nt} triangles, nchunks={nchunks})",
                        advice=advice, limit=limit)
+
+
+def element_classes(t: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """Classes of elements no two of which share a node: (order, ptr), class k the
+    elements order[ptr[k]:ptr[k+1]], ascending.  Greedy colouring of the elements in
+    index order (:func:`fracfem._h2_kernels.greedy_colouring`), so at most
+    3 (d − 1) + 1 classes, d the most elements at one node."""
+    from ._h2_kernels import greedy_colouring
+    nt = len(t)
+    inc = sp.csr_matrix((np.ones(3 * nt), t.ravel(), np.arange(0, 3 * nt + 1, 3)),
+                        shape=(nt, nv))
+    adj = (inc @ inc.T).tocsr()
+    adj.sort_indices()
+    colour = greedy_colouring(adj.indptr.astype(np.int64), adj.indices.astype(np.int64))
+    order = np.argsort(colour, kind="stable").astype(np.int64)
+    ptr = np.concatenate([[0], np.cumsum(np.bincount(colour))]).astype(np.int64)
+    return order, ptr
+
+
+def far_field_into(A, p, t, s, quad, geometry, moments, nchunks):
+    """Add the far field of every separated pair (without c_{2,s}) to A in place:
+    the off-diagonal part symmetrised, the diagonal blocks from the per-element sums
+    (:func:`fracfem._kernels.far_pairs`).  A must hold nothing else yet: A + Aᵀ is
+    taken in place.  Returns the rules (qx, qw, lam, offsets)."""
+    orders = quad.far_orders
+    area2, cent, diam = geometry
+    area, mom, grad = moments
+    qx, qw, lam, offs = _far_rules(p, t, orders, area2)
+    order, ptr = element_classes(t, len(p))
+    D = _kernels.far_pairs(A, t, cent, diam, area, mom, grad, qx, qw, lam, offs,
+                           np.asarray(quad.far_thresholds, dtype=np.float64),
+                           orders[0] == 0, s, order, ptr, nchunks)
+    _kernels.add_transpose_inplace(A, nchunks)
+    D = D.sum(axis=0)
+    # diagonal blocks of the Gauss levels: Σ_q D_q λ_a(x_q) λ_b(x_q)
+    E = np.einsum("tq,qa,qb->tab", D[:, 4:], lam, lam)
+    # ... and of the Taylor level: ΣC0/9 + (α·∇λ_a + α·∇λ_b)/3 + Σk|T'| ∇λ_aᵀ I_T ∇λ_b
+    if orders[0] == 0:
+        al = np.einsum("td,tad->ta", D[:, 1:3], grad) / 3.0
+        Imat = np.stack([mom[:, [0, 1]], mom[:, [1, 2]]], axis=1)
+        E += (D[:, 0, None, None] / 9.0 + al[:, :, None] + al[:, None, :]
+              + D[:, 3, None, None] * np.einsum("tad,tde,tbe->tab", grad, Imat, grad))
+    _kernels.scatter_local(A, t, E, 1.0)
 
 
 def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = None,
@@ -602,8 +642,9 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
     s : fractional order in (0, 1)
     quadrature : orders, default :class:`QuadratureOptions`
     timings : if given, filled with seconds per phase
-    nchunks : parallel chunks of the far-field loop (default: numba threads); each
-        holds a private N × N copy
+    nchunks : threads of the far-field loop (default: numba threads); they share A (each
+        takes elements of one class at a time, no two of which share a node: no two threads
+        write one row), so the peak is one N × N matrix whatever their number
     memory_limit : bytes the dense path may use (number, or a string like '2G');
         default ``$FRACFEM_MEMORY_LIMIT``, else the memory available now.  A problem
         needing more (:func:`dense_bytes`) raises
@@ -627,7 +668,14 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
 
     edges, bnodes = _boundary_edges(p, t)
     edge_nodes, vertex_nodes = touching_pairs(t)
+    geometry = _element_geometry(p, t)
+    # the far field first, into A itself (no copy per thread), then the rest added
     A = np.zeros((nv, nv))
+    far_field_into(A, p, t, s, quad, geometry, _element_moments(p, t), nchunks)
+    A *= c
+    tim["far"] = time.perf_counter() - t0
+
+    t1 = time.perf_counter()
     # identical pairs: (c/2) Σ_T I_TT; touching pairs: c Σ_{T<T'} I_TT'
     loc = _singular_local(p, t, "coincident", quad.coincident, s, quad)
     _kernels.scatter_local(A, t, loc, 0.5 * c)
@@ -635,32 +683,7 @@ def stiffness_matrix(mesh, s: float, *, quadrature: QuadratureOptions | None = N
     _kernels.scatter_local(A, edge_nodes, loc, c)
     loc = _singular_local(p, vertex_nodes, "vertex", quad.vertex, s, quad)
     _kernels.scatter_local(A, vertex_nodes, loc, c)
-    tim["singular"] = time.perf_counter() - t0
-
-    t1 = time.perf_counter()
-    orders = quad.far_orders
-    geometry = _element_geometry(p, t)
-    area2, cent, diam = geometry
-    qx, qw, lam, offs = _far_rules(p, t, orders, area2)
-    area, mom, grad = _element_moments(p, t)
-    X, D = _kernels.far_pairs(t, cent, diam, area, mom, grad,
-                              qx, qw, lam, offs,
-                              np.asarray(quad.far_thresholds, dtype=np.float64),
-                              orders[0] == 0, s, nv, nchunks)
-    X *= c
-    _kernels.sum_chunks_symmetric(X, A)
-    del X
-    D = D.sum(axis=0)
-    # diagonal blocks of the Gauss levels: Σ_q D_q λ_a(x_q) λ_b(x_q)
-    E = np.einsum("tq,qa,qb->tab", D[:, 4:], lam, lam)
-    # ... and of the Taylor level: ΣC0/9 + (α·∇λ_a + α·∇λ_b)/3 + Σk|T'| ∇λ_aᵀ I_T ∇λ_b
-    if orders[0] == 0:
-        al = np.einsum("td,tad->ta", D[:, 1:3], grad) / 3.0
-        Imat = np.stack([mom[:, [0, 1]], mom[:, [1, 2]]], axis=1)
-        E += (D[:, 0, None, None] / 9.0 + al[:, :, None] + al[:, None, :]
-              + D[:, 3, None, None] * np.einsum("tad,tde,tbe->tab", grad, Imat, grad))
-    _kernels.scatter_local(A, t, E, c)
-    tim["far"] = time.perf_counter() - t1
+    tim["singular"] = time.perf_counter() - t1
 
     t3 = time.perf_counter()
     pairs, corr = close_pair_corrections(p, t, s, quad, geometry)

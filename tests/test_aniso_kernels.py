@@ -313,8 +313,9 @@ def test_pair_kernels_refuse_rules_larger_than_their_work_arrays():
     qx, qw, lam = np.zeros((nt, nq, 2)), np.zeros((nt, nq)), np.zeros((nq, 3))
     offsets, thresholds = np.array([0, nq]), np.zeros(0)
     with pytest.raises(ValueError, match="longer than the work arrays"):
-        _kernels.far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offsets,
-                           thresholds, False, 0.5, 6, 1)
+        _kernels.far_pairs(np.zeros((6, 6)), t, cent, diam, area, mom, grad, qx, qw, lam,
+                           offsets, thresholds, False, 0.5, np.arange(nt), np.array([0, nt]),
+                           1)
     i1 = np.array([0, 1])
     with pytest.raises(ValueError, match="longer than the work arrays"):
         _kernels.near_pairs(t, np.arange(nt), np.array([0]), np.array([2]), i1,

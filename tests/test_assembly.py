@@ -59,30 +59,13 @@ def local_nodes(t, kind):
 
 
 def far_kernel_matrix(p, t, s, orders, thresholds, nchunks=2):
-    """Matrix of _kernels.far_pairs (without c_{2,s}): the off-diagonal part
-    X + Xᵀ and the diagonal blocks from D, glued as documented in far_pairs."""
-    nv = len(p)
-    qx, qw, lam, offs = assembly._far_rules(p, t, orders)
-    cent = np.ascontiguousarray(p[t].mean(axis=1))
-    diam = np.max([np.linalg.norm(p[t[:, i]] - p[t[:, j]], axis=1)
-                   for i, j in ((0, 1), (1, 2), (2, 0))], axis=0)
-    area, mom, grad = assembly._element_moments(p, t)
-    X, D = _kernels.far_pairs(t, cent, diam, area, mom, grad, qx, qw, lam, offs,
-                              np.asarray(thresholds, dtype=float), orders[0] == 0,
-                              float(s), nv, nchunks)
-    A = np.zeros((nv, nv))
-    _kernels.sum_chunks_symmetric(X, A)
-    D = D.sum(axis=0)
-    # Gauss levels: Σ_q D_q λ_a(x_q) λ_b(x_q)
-    E = np.einsum("tq,qa,qb->tab", D[:, 4:], lam, lam)
-    if orders[0] == 0:
-        # Taylor level: ΣC0/9 + (α·∇λ_a + α·∇λ_b)/3 + Σk|T'| ∇λ_aᵀ I_T ∇λ_b
-        I = np.stack([mom[:, [0, 1]], mom[:, [1, 2]]], axis=1)
-        al = np.einsum("td,tad->ta", D[:, 1:3], grad) / 3.0
-        E += (D[:, 0, None, None] / 9.0 + al[:, :, None] + al[:, None, :]
-              + D[:, 3, None, None] * np.einsum("tad,tde,tbe->tab", grad, I, grad))
-    for T in range(len(t)):
-        A[np.ix_(t[T], t[T])] += E[T]
+    """Matrix of _kernels.far_pairs (without c_{2,s}) as the assembly glues it
+    (assembly.far_field_into): the off-diagonal part X + Xᵀ and the diagonal blocks
+    from D."""
+    quad = QuadratureOptions(far_orders=tuple(orders), far_thresholds=tuple(thresholds))
+    A = np.zeros((len(p), len(p)))
+    assembly.far_field_into(A, p, t, float(s), quad, assembly._element_geometry(p, t),
+                            assembly._element_moments(p, t), nchunks)
     return A
 
 
@@ -218,6 +201,46 @@ def test_far_pairs_all_levels_populated_match_reference():
     got = far_kernel_matrix(p, t, 0.4, orders, thr)
     want = ref.far_matrix_reference(p, t, 0.4, orders, thr)
     assert rel(got, want) < 1e-12
+
+
+@pytest.mark.parametrize("name", ["circle2", "square2", "lshape1"])
+def test_element_classes_share_no_node(name):
+    """Every element in exactly one class, ascending within it; no two elements of a class
+    share a node; at most 3 (d − 1) + 1 classes, d the most elements at a node."""
+    p, t = arrays(name)
+    order, ptr = assembly.element_classes(t, len(p))
+    assert sorted(order.tolist()) == list(range(len(t))) and ptr[0] == 0 and ptr[-1] == len(t)
+    for k in range(len(ptr) - 1):
+        cls = order[ptr[k]:ptr[k + 1]]
+        assert len(cls) and np.all(np.diff(cls) > 0)
+        nodes = t[cls].ravel()
+        assert len(np.unique(nodes)) == len(nodes)
+    d = np.bincount(t.ravel()).max()
+    assert len(ptr) - 1 <= 3 * (d - 1) + 1
+
+
+@pytest.mark.parametrize("n", [1, 63, 64, 130])
+@pytest.mark.parametrize("nchunks", [1, 3])
+def test_add_transpose_in_place(n, nchunks):
+    A = np.random.default_rng(n).standard_normal((n, n))
+    want = A + A.T
+    _kernels.add_transpose_inplace(A, nchunks)
+    assert np.array_equal(A, want)
+
+
+def test_far_field_between_separated_nodes_does_not_depend_on_threads():
+    """Threads share A one class of elements at a time, so an entry between two nodes
+    that share no element (the far field's terms alone) receives its terms in one order
+    whatever the number of threads: bit for bit the same; the rest to round-off."""
+    p, t = mesh_arrays(meshes.disk_uniform(3))
+    runs = [far_kernel_matrix(p, t, 0.5, (0, 2, 4), (4.0, 2.0), nchunks=k) for k in (1, 2, 5)]
+    inc = np.zeros((len(p), len(t)))
+    inc[t.ravel(), np.repeat(np.arange(len(t)), 3)] = 1.0
+    separate = (inc @ inc.T) == 0
+    assert separate.sum() > 0.5 * separate.size
+    for A in runs[1:]:
+        assert np.array_equal(A[separate], runs[0][separate])
+        assert rel(A, runs[0]) < 1e-14
 
 
 def taylor_jet(P1, P2, s):
