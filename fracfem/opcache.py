@@ -157,6 +157,28 @@ def _read(directory: Path, key: str, n: int):
     return A, seconds
 
 
+def free_block_in_place(A: np.ndarray, free) -> np.ndarray:
+    """A[free, free] written into the first len(free)² entries of A's own buffer and
+    returned as a C-contiguous view of it: no second matrix (A's rows afterwards are
+    overwritten).  ``free`` ascending, unique, within range; A square and C-contiguous."""
+    free = np.asarray(free, dtype=np.int64)
+    n = A.shape[0]
+    if A.ndim != 2 or A.shape[1] != n or not A.flags.c_contiguous:
+        raise ValueError(f"A of shape {A.shape} must be a square C-contiguous array")
+    if free.ndim != 1 or (len(free) and (free[0] < 0 or free[-1] >= n
+                                         or np.any(np.diff(free) <= 0))):
+        raise ValueError(f"free must be ascending unique indices in [0, {n}); got "
+                         f"{len(free)} indices")
+    m = len(free)
+    flat = A.reshape(-1)
+    # row i goes to flat[i m:(i + 1) m], read from row free[i] >= i, which starts at or
+    # after it; a later row's source (free[j] n >= (i + 1) m for j > i) is not reached,
+    # and row i's own source is gathered before it is written
+    for i in range(m):
+        flat[i * m:(i + 1) * m] = A[free[i], free]
+    return flat[:m * m].reshape(m, m)
+
+
 def dense_free_block(mesh, s, free, quadrature, assemble):
     """(A[free, free], timings, info) of the dense matrix: read back from the cache when
     it holds it, else ``assemble()`` (the full matrix, with its timings) and kept there.
@@ -165,7 +187,7 @@ def dense_free_block(mesh, s, free, quadrature, assemble):
     directory = cache_directory()
     if directory is None:
         A, tim = assemble()
-        return np.ascontiguousarray(A[np.ix_(free, free)]), tim, {}
+        return free_block_in_place(A, free), tim, {}
     import numba
     key = entry_key(mesh.p, mesh.t, free, s, quadrature, numba.get_num_threads())
     t0 = time.perf_counter()
@@ -177,7 +199,7 @@ def dense_free_block(mesh, s, free, quadrature, assemble):
                     "in %.2f s)", len(free), len(free), s, load, seconds)
         return A, {"total": seconds, "load": load}, {"cache": "hit"}
     A, tim = assemble()
-    Af = np.ascontiguousarray(A[np.ix_(free, free)])
+    Af = free_block_in_place(A, free)
     del A
     _write(directory, key, Af, tim["total"])
     return Af, tim, {"cache": "miss"}

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import fracfem as ff
-from fracfem.opcache import ENV, cache_directory
+from fracfem.opcache import ENV, cache_directory, free_block_in_place
 
 
 @pytest.fixture
@@ -123,3 +123,26 @@ def test_a_matrix_too_large_is_refused_also_when_the_cache_holds_it(tmp_path, me
         monkeypatch.setenv("FRACFEM_MEMORY_LIMIT", "16K")
         with pytest.raises(ff.DenseMemoryError, match="FRACFEM_MEMORY_LIMIT"):
             ff.discretise(mesh, 0.5)
+
+
+@pytest.mark.parametrize("free", [[0, 1, 2, 3, 4, 5, 6], [0, 1, 2, 5, 6], [1, 3, 4, 6], [6], [0],
+                                  []])
+def test_the_free_block_is_taken_in_place(free):
+    rng = np.random.default_rng(len(free))
+    A = rng.standard_normal((7, 7))
+    want = A[np.ix_(free, free)].copy()
+    Af = free_block_in_place(A, free)
+    assert np.array_equal(Af, want)
+    assert Af.flags.c_contiguous and Af.shape == (len(free), len(free))
+    assert not free or np.shares_memory(Af, A)       # no second matrix
+
+
+@pytest.mark.parametrize("free,what", [([2, 1], "ascending"), ([1, 1], "ascending"),
+                                       ([0, 7], r"\[0, 7\)"), ([-1, 2], r"\[0, 7\)")])
+def test_the_free_block_refuses_bad_indices(free, what):
+    with pytest.raises(ValueError, match=what):
+        free_block_in_place(np.zeros((7, 7)), free)
+    with pytest.raises(ValueError, match="square C-contiguous"):
+        free_block_in_place(np.zeros((7, 7)).T[:, :6], [0])
+    with pytest.raises(ValueError, match="square C-contiguous"):
+        free_block_in_place(np.asfortranarray(np.ones((7, 7))[:, ::-1].copy()), [0])
