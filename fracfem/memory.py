@@ -1,9 +1,9 @@
 """Memory guard of the dense paths: refuse a problem before allocating what cannot fit.
 
-The dense stiffness matrix of N nodes needs 8 N² bytes, and its far-field loop
-keeps one private N × N copy per parallel chunk (no write races), so N = 1.3·10⁵
-asks for hundreds of GiB.  Without a guard numpy allocates until it fails (or
-the system swaps); :func:`check_dense` refuses such a problem at once.
+The dense stiffness matrix of N nodes needs 8 N² bytes (its far field is assembled
+into it, no copy per thread), so N = 1.3·10⁵ asks for about 130 GiB.  Without a guard
+numpy allocates until it fails (or the system swaps); :func:`check_dense` refuses such
+a problem at once.
 
 The limit is the memory available now (``MemAvailable`` of /proc/meminfo, else
 free physical pages, and no more than the process's control group leaves: the memory limit

@@ -158,13 +158,19 @@ def _read(directory: Path, key: str, n: int):
 
 
 def free_block_in_place(A: np.ndarray, free) -> np.ndarray:
-    """A[free, free] written into the first len(free)² entries of A's own buffer and
-    returned as a C-contiguous view of it: no second matrix (A's rows afterwards are
-    overwritten).  ``free`` ascending, unique, within range; A square and C-contiguous."""
-    free = np.asarray(free, dtype=np.int64)
-    n = A.shape[0]
-    if A.ndim != 2 or A.shape[1] != n or not A.flags.c_contiguous:
-        raise ValueError(f"A of shape {A.shape} must be a square C-contiguous array")
+    """A[free, free] without a second matrix: its rows written into the first
+    len(free)² entries of A's own buffer, which is then shrunk to them (A itself
+    becomes the block and is returned).  A: square, C-contiguous, owning its data and
+    with no other views (they would point into freed memory); ``free``: ascending,
+    unique integer indices within range."""
+    n = A.shape[0] if A.ndim == 2 else -1
+    if n < 0 or A.shape[1] != n or not A.flags.c_contiguous or not A.flags.owndata:
+        raise ValueError(f"A of shape {A.shape} must be a square C-contiguous array that "
+                         "owns its data")
+    free = np.asarray(free)
+    if free.size and not np.issubdtype(free.dtype, np.integer):
+        raise ValueError(f"free must be integer indices, not {free.dtype}")
+    free = free.astype(np.int64)
     if free.ndim != 1 or (len(free) and (free[0] < 0 or free[-1] >= n
                                          or np.any(np.diff(free) <= 0))):
         raise ValueError(f"free must be ascending unique indices in [0, {n}); got "
@@ -176,7 +182,9 @@ def free_block_in_place(A: np.ndarray, free) -> np.ndarray:
     # and row i's own source is gathered before it is written
     for i in range(m):
         flat[i * m:(i + 1) * m] = A[free[i], free]
-    return flat[:m * m].reshape(m, m)
+    del flat
+    A.resize((m, m), refcheck=False)      # the first m² entries kept; the rest given back
+    return A
 
 
 def dense_free_block(mesh, s, free, quadrature, assemble):
@@ -200,6 +208,5 @@ def dense_free_block(mesh, s, free, quadrature, assemble):
         return A, {"total": seconds, "load": load}, {"cache": "hit"}
     A, tim = assemble()
     Af = free_block_in_place(A, free)
-    del A
     _write(directory, key, Af, tim["total"])
     return Af, tim, {"cache": "miss"}

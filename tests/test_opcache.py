@@ -133,8 +133,8 @@ def test_the_free_block_is_taken_in_place(free):
     want = A[np.ix_(free, free)].copy()
     Af = free_block_in_place(A, free)
     assert np.array_equal(Af, want)
-    assert Af.flags.c_contiguous and Af.shape == (len(free), len(free))
-    assert not free or np.shares_memory(Af, A)       # no second matrix
+    assert Af is A and Af.flags.c_contiguous and Af.flags.owndata    # no second matrix
+    assert Af.nbytes == 8 * len(free) ** 2                               # and no more
 
 
 @pytest.mark.parametrize("free,what", [([2, 1], "ascending"), ([1, 1], "ascending"),
@@ -142,7 +142,9 @@ def test_the_free_block_is_taken_in_place(free):
 def test_the_free_block_refuses_bad_indices(free, what):
     with pytest.raises(ValueError, match=what):
         free_block_in_place(np.zeros((7, 7)), free)
-    with pytest.raises(ValueError, match="square C-contiguous"):
-        free_block_in_place(np.zeros((7, 7)).T[:, :6], [0])
-    with pytest.raises(ValueError, match="square C-contiguous"):
-        free_block_in_place(np.asfortranarray(np.ones((7, 7))[:, ::-1].copy()), [0])
+    with pytest.raises(ValueError, match="integer indices, not bool"):
+        free_block_in_place(np.zeros((7, 7)), [False, True])
+    for A in (np.zeros((7, 6)), np.zeros(7), np.asfortranarray(np.ones((7, 7))[:, ::-1]),
+              np.zeros((8, 8))[:7, :7], np.zeros((7, 7)).T):
+        with pytest.raises(ValueError, match="square C-contiguous array that owns its data"):
+            free_block_in_place(A, [0])
