@@ -1494,3 +1494,37 @@ def test_example1_run_and_its_quadrature_check_keep_the_operator(tmp_path, opera
     assert out.operator == operator
     assert json.loads(out.quadrature_far_orders)[0] == (0 if operator == "compressed" else 2)
     assert out.change_over_error_squared < 0.01
+
+
+def test_kept_tables_are_copied_with_their_settings_written_last(tmp_path, monkeypatch):
+    """para_errors_copy (the keep rules): a table and its reference's record copied file by
+    file, the settings written beside the first copy; the old settings go first, so that a
+    copy that fails half-way leaves no settings (a kept table without them is computed again)
+    rather than old settings beside a new table."""
+    copy = script("para_errors_copy")
+    (tmp_path / "errors.csv").write_text("a\n1\n")
+    (tmp_path / "reference.json").write_text('{"E": 1}')
+    kept = tmp_path / "kept"
+    targets = [kept / "ex2-vi-errors.csv", kept / "ex2-vi-reference.json"]
+    copy.main([tmp_path / "errors.csv", tmp_path / "reference.json"], targets,
+              tmp_path / "note.txt", settings='{"x": 1}')
+    assert targets[0].read_text() == "a\n1\n" and targets[1].read_text() == '{"E": 1}'
+    assert (kept / "ex2-vi-errors.json").read_text() == '{"x": 1}\n'
+    assert (tmp_path / "note.txt").read_text().count(" -> ") == 2
+    (tmp_path / "errors.csv").write_text("a\n2\n")
+    calls, real = [], shutil.copyfile
+
+    def fail_on_the_record(source, target):
+        calls.append(Path(source).name)
+        if Path(source).name == "reference.json":
+            raise OSError("disk full")
+        real(source, target)
+    monkeypatch.setattr(copy.shutil, "copyfile", fail_on_the_record)
+    with pytest.raises(OSError, match="disk full"):
+        copy.main([tmp_path / "errors.csv", tmp_path / "reference.json"], targets,
+                  tmp_path / "note.txt", settings='{"x": 2}')
+    assert calls == ["errors.csv", "reference.json"]
+    assert not (kept / "ex2-vi-errors.json").exists()        # no settings: not read as kept
+    with pytest.raises(ValueError, match="2 files to copy to 1 places"):
+        copy.main([tmp_path / "errors.csv", tmp_path / "reference.json"], targets[:1],
+                  tmp_path / "note.txt")

@@ -347,6 +347,51 @@ def test_kept_error_tables_replace_the_runs_they_were_made_from(tmp_path):
     assert code != 0 and "parabolic.kept_errors=None" in text
 
 
+def test_kept_elliptic_error_tables_replace_the_runs_they_were_made_from(tmp_path):
+    """reference.kept_errors: elliptic-errors.md of the paper-scale tier reads Examples 2 and
+    3's kept error tables and reference records (the committed ones, with the settings they
+    were made with beside them) where this configuration would make the same, and then runs
+    only Example 1's jobs. With a setting that decides their rows changed (Algorithm B's,
+    Example 3's series, the solver's), without a settings record or without the reference
+    record, a problem's errors are computed and the log says why; keeping one without that
+    folder is refused, naming the key."""
+    committed = ROOT / "workflow" / "data" / "tables" / "paper-scale"
+    problems = ["ex2", "ex3-printed", "ex3-signchange"]
+    kept = tmp_path / "kept"
+    cfg = tmp_path / "s.yaml"
+
+    def jobs(extra=""):
+        cfg.write_text(f"reference:\n  kept_errors: {kept}\n" + extra)
+        _, text = dry_run("--configfile", "config/paper.yaml", str(cfg), "--config",
+                          f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o", "--",
+                          f"{tmp_path}/o/elliptic-errors.md")
+        return job_counts(text), text
+    counts, _ = jobs()
+    assert counts["vi_errors"] == 3 and counts["vi_adaptive"] == 3
+    kept.mkdir()
+    for problem in problems:
+        for name in ("vi-errors.csv", "vi-errors.json", "vi-reference.json"):
+            shutil.copyfile(committed / f"{problem}-{name}", kept / f"{problem}-{name}")
+    counts, text = jobs()
+    assert set(counts) == {"ex1_solve", "ex1_adaptive", "ex1_table", "reference_table"}
+    assert f"{kept}/ex2-vi-errors.csv" in text and f"{kept}/ex3-printed-vi-reference.json" in text
+    for extra, named, computed in [("vi_adaptive:\n  theta: 0.6\n", "adaptive", 3),
+                                   ("example3:\n  graded_h: [0.4, 0.2]\n", "series", 2),
+                                   ("solver:\n  tol: 1.0e-9\n", "solver", 3)]:
+        counts, text = jobs(extra)
+        assert counts.get("vi_errors") == computed, extra
+        assert f"differs from this configuration in {named}" in text, extra
+    (kept / "ex2-vi-reference.json").unlink()
+    counts, text = jobs()
+    assert counts["vi_errors"] == 1 and "no reference record" in text
+    (kept / "ex3-printed-vi-errors.json").unlink()
+    counts, text = jobs()
+    assert counts["vi_errors"] == 2 and "unreadable" in text
+    code, text = dry_run("--config", f"results_dir={tmp_path}/r", "--",
+                         f"{tmp_path}/r/vi/ex2/errors-kept.txt", ok=False)
+    assert code != 0 and "reference.kept_errors=None" in text
+
+
 @pytest.mark.parametrize("choice, checked", [
     ({"graded-sr": 3}, {"uniform": "L5", "graded": "h0.05", "graded-sr": "r0.2"}),
     ({"uniform": 1, "graded": 1, "graded-sr": 1},

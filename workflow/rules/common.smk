@@ -484,7 +484,69 @@ def para_series_npz(wildcards):
 def vi_error_tables(wildcards):
     """The error tables shown in Figure 7 (Example 2) or 9 (Example 3)."""
     problems = ["ex2"] if wildcards.num == "07" else VI_PROBLEMS[1:]
-    return [path(rules.vi_errors.output.csv, problem=p) for p in problems]
+    return [vi_errors_table(p) for p in problems]
+
+
+def kept_vi_errors(problem, kind="csv"):
+    """The copy of an elliptic obstacle/friction problem's error table (kind 'csv') or of
+    its reference's record ('json') kept in the repository (reference.kept_errors, rule
+    vi_errors_keep; the settings it was made with beside the table, <problem>-vi-errors.json);
+    None when that is null."""
+    root = config["reference"].get("kept_errors")
+    if root is None:
+        return None
+    name = f"{problem}-vi-errors.csv" if kind == "csv" else f"{problem}-vi-reference.json"
+    return Path(workflow.basedir) / root / name
+
+
+def _no_kept_vi_errors():
+    raise ValueError("config reference.kept_errors=None: vi_errors_keep needs the folder to "
+                     "keep the error tables in (config/paper.yaml sets one)")
+
+
+def kept_vi_settings(problem):
+    """What a kept error table of an elliptic obstacle/friction problem must have been made
+    with (JSON; written beside it by vi_errors_keep): the problem's data, its series and
+    their grading, the quadrature and the solver's settings, Algorithm B's settings, the
+    reference's family and the large run's parameters."""
+    w = Namespace(problem=problem)
+    return json.dumps({
+        "data": vi_data(w), "series": series(EX2 if problem == "ex2" else EX3),
+        "grading": GRADING, "quadrature": QUADRATURE, "solver": SOLVER,
+        "adaptive": config["vi_adaptive"], "reference_family": config["reference"]["family"],
+        "large": large_parameters(w)}, sort_keys=True, default=str)
+
+
+_KEPT_VI_CHOICE = {}
+
+
+def vi_errors_table(problem, kind="csv"):
+    """An elliptic obstacle/friction problem's error table (kind 'csv') or its reference's
+    record ('json') as the pages read them: the kept copies where reference.kept_errors
+    has them made with this configuration's settings (kept_vi_settings; a tier whose runs
+    take more than one run of its machine assembles its pages across Examples 1-3 from
+    there), else vi_errors's outputs (computed when missing)."""
+    if problem not in _KEPT_VI_CHOICE:
+        csv, ref = kept_vi_errors(problem), kept_vi_errors(problem, "json")
+        choice = (path(rules.vi_errors.output.csv, problem=problem),
+                  path(rules.vi_errors.output.json, problem=problem))
+        if csv is not None and (csv.exists() or ref.exists()):
+            from fracfem_workflow.runs import key_differences
+            try:
+                differ = key_differences(csv.with_suffix(".json").read_text(),
+                                         kept_vi_settings(problem))
+                if not ref.exists():
+                    differ.append("no reference record")
+            except (OSError, ValueError) as err:
+                differ = [f"unreadable ({type(err).__name__}: {err})"]
+            if not differ:
+                choice = (str(csv), str(ref))
+            else:
+                logger.warning(f"{csv} differs from this configuration in "
+                               f"{', '.join(differ)}: the errors of {problem} are computed "
+                               "(rule vi_errors)")
+        _KEPT_VI_CHOICE[problem] = choice
+    return _KEPT_VI_CHOICE[problem][0 if kind == "csv" else 1]
 
 
 def kept_para_errors(problem):

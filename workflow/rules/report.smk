@@ -20,7 +20,7 @@ def rate_table_tiers():
 rule rates:
     input:
         ex1=rules.ex1_table.output.table,
-        vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
+        vi=[vi_errors_table(p) for p in VI_PROBLEMS],
         para=[para_errors_table(p) for p in PARA_PROBLEMS],
         tiers=other_tier_tables,
     output:
@@ -44,7 +44,7 @@ rule rates_elliptic:
     # rates beside the other tiers' in the meantime
     input:
         ex1=rules.ex1_table.output.table,
-        vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
+        vi=[vi_errors_table(p) for p in VI_PROBLEMS],
         tiers=other_tier_tables,
     output:
         **rate_table_outputs("rates-elliptic"),

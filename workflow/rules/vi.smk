@@ -273,10 +273,37 @@ rule vi_errors:
         "../scripts/vi_errors.py"
 
 
+# `snakemake --cores 2 <RES>/vi/<problem>/errors-kept.txt --configfile config/paper.yaml`:
+# the problem's error table and its reference's record copied to reference.kept_errors
+# with the settings they were made with; the pages across Examples 1-3 then read them
+# instead of computing them (vi_errors_table), so that a tier whose runs take more than one
+# run of its machine makes Examples 2-3's runs in one and Example 1's in another
+rule vi_errors_keep:
+    input:
+        csv=rules.vi_errors.output.csv,
+        json=rules.vi_errors.output.json,
+    output:
+        note=f"{RES}/vi/{{problem}}/errors-kept.txt",
+    wildcard_constraints:
+        problem=r"ex2|ex3-\w+",
+    params:
+        committed=lambda w: [str(kept_vi_errors(w.problem) or _no_kept_vi_errors()),
+                             str(kept_vi_errors(w.problem, "json"))],
+        settings=lambda w: kept_vi_settings(w.problem),   # written beside the table (.json)
+    log:
+        f"{RES}/logs/vi/{{problem}}_errors_keep.log",
+    benchmark:
+        f"{RES}/benchmarks/vi/{{problem}}_errors_keep.tsv"
+    conda:
+        ENV
+    script:
+        "../scripts/para_errors_copy.py"
+
+
 rule reference_table:
     input:
-        refs=expand(rules.vi_errors.output.json, problem=VI_PROBLEMS),
-        errors=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
+        refs=[vi_errors_table(p, "json") for p in VI_PROBLEMS],
+        errors=[vi_errors_table(p) for p in VI_PROBLEMS],
         ex1=rules.ex1_table.output.table,
     output:
         md=report(
@@ -372,7 +399,7 @@ rule fig_vi_error:
 rule elliptic_error_vs_time:
     input:
         ex1=rules.ex1_table.output.table,
-        vi=expand(rules.vi_errors.output.csv, problem=VI_PROBLEMS),
+        vi=[vi_errors_table(p) for p in VI_PROBLEMS],
     output:
         png=report(
             f"{OUT}/extra-elliptic-error-vs-time.png",
@@ -424,8 +451,8 @@ rule vi_graded_rings:
 rule ex2_graded_rings:
     input:
         rings=path(rules.vi_graded_rings.output.table, problem="ex2"),
-        reference=path(rules.vi_errors.output.json, problem="ex2"),
-        errors=path(rules.vi_errors.output.csv, problem="ex2"),
+        reference=vi_errors_table("ex2", "json"),
+        errors=vi_errors_table("ex2"),
         meshes=lambda wildcards: large_reference(Namespace(problem="ex2"), kind="meshes"),
     output:
         md=report(
@@ -549,7 +576,7 @@ rule vi_adaptive_distances:
 rule ex2_adaptive_rate:
     input:
         distances=rules.vi_adaptive_distances.output.csv,
-        errors=path(rules.vi_errors.output.csv, problem="ex2"),
+        errors=vi_errors_table("ex2"),
     output:
         md=report(
             f"{OUT}/ex2-adaptive-rate.md",
