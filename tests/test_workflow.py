@@ -26,6 +26,17 @@ def job_counts(text):
     return {m.group(1): int(m.group(2)) for m in re.finditer(r"^(\w+)\s+(\d+)\s*$", table, re.M)}
 
 
+def kept_dry_run(tmp_path, section, kept, target, extra=""):
+    """(job counts, text) of a paper-scale dry run for ``target`` under its output root in
+    tmp_path, with ``section``.kept_errors set to ``kept`` and the YAML ``extra`` added."""
+    cfg = tmp_path / "s.yaml"
+    cfg.write_text(f"{section}:\n  kept_errors: {kept}\n" + extra)
+    _, text = dry_run("--configfile", "config/paper.yaml", str(cfg), "--config",
+                      f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o", "--",
+                      f"{tmp_path}/o/{target}")
+    return job_counts(text), text
+
+
 def test_one_figure_runs_only_its_jobs(tmp_path):
     _, text = dry_run("--config", f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o",
                       "--", f"{tmp_path}/o/fig02-ex1-error.png")
@@ -308,14 +319,9 @@ def test_kept_error_tables_replace_the_runs_they_were_made_from(tmp_path):
     import pandas as pd
     committed = ROOT / "workflow" / "data" / "tables" / "paper-scale" / "ex5-errors.csv"
     kept = tmp_path / "kept"
-    cfg = tmp_path / "s.yaml"
 
     def jobs(extra=""):
-        cfg.write_text(f"parabolic:\n  kept_errors: {kept}\n" + extra)
-        _, text = dry_run("--configfile", "config/paper.yaml", str(cfg), "--config",
-                          f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o", "--",
-                          f"{tmp_path}/o/fig15-ex5-error.png")
-        return job_counts(text), text
+        return kept_dry_run(tmp_path, "parabolic", kept, "fig15-ex5-error.png", extra)
     counts, _ = jobs()
     assert counts["para_errors"] == 1 and counts["para_adaptive"] == 1
     kept.mkdir()
@@ -358,14 +364,9 @@ def test_kept_elliptic_error_tables_replace_the_runs_they_were_made_from(tmp_pat
     committed = ROOT / "workflow" / "data" / "tables" / "paper-scale"
     problems = ["ex2", "ex3-printed", "ex3-signchange"]
     kept = tmp_path / "kept"
-    cfg = tmp_path / "s.yaml"
 
     def jobs(extra=""):
-        cfg.write_text(f"reference:\n  kept_errors: {kept}\n" + extra)
-        _, text = dry_run("--configfile", "config/paper.yaml", str(cfg), "--config",
-                          f"results_dir={tmp_path}/r", f"output_root={tmp_path}/o", "--",
-                          f"{tmp_path}/o/elliptic-errors.md")
-        return job_counts(text), text
+        return kept_dry_run(tmp_path, "reference", kept, "elliptic-errors.md", extra)
     counts, _ = jobs()
     assert counts["vi_errors"] == 3 and counts["vi_adaptive"] == 3
     kept.mkdir()
