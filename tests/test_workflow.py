@@ -358,9 +358,9 @@ def test_kept_elliptic_error_tables_replace_the_runs_they_were_made_from(tmp_pat
     3's kept error tables and reference records (the committed ones, with the settings they
     were made with beside them) where this configuration would make the same, and then runs
     only Example 1's jobs. With a setting that decides their rows changed (Algorithm B's,
-    Example 3's series, the solver's), without a settings record or without the reference
-    record, a problem's errors are computed and the log says why; keeping one without that
-    folder is refused, naming the key."""
+    Example 3's series, the solver's), without a settings record, the reference record or
+    the table, or with a damaged table, a problem's errors are computed and the log says why;
+    keeping one without that folder is refused, naming the key."""
     committed = ROOT / "workflow" / "data" / "tables" / "paper-scale"
     problems = ["ex2", "ex3-printed", "ex3-signchange"]
     kept = tmp_path / "kept"
@@ -388,6 +388,12 @@ def test_kept_elliptic_error_tables_replace_the_runs_they_were_made_from(tmp_pat
     (kept / "ex3-printed-vi-errors.json").unlink()
     counts, text = jobs()
     assert counts["vi_errors"] == 2 and "unreadable" in text
+    (kept / "ex3-signchange-vi-errors.csv").write_text("example\n1\n")     # no family column
+    counts, text = jobs()
+    assert counts["vi_errors"] == 3 and "no family column" in text
+    (kept / "ex3-signchange-vi-errors.csv").unlink()                      # no table at all
+    counts, text = jobs()
+    assert counts["vi_errors"] == 3 and "unreadable" in text
     code, text = dry_run("--config", f"results_dir={tmp_path}/r", "--",
                          f"{tmp_path}/r/vi/ex2/errors-kept.txt", ok=False)
     assert code != 0 and "reference.kept_errors=None" in text

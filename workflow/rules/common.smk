@@ -531,12 +531,15 @@ def vi_errors_table(problem, kind="csv"):
         choice = (path(rules.vi_errors.output.csv, problem=problem),
                   path(rules.vi_errors.output.json, problem=problem))
         if csv is not None and (csv.exists() or ref.exists()):
+            import pandas as pd
             from fracfem_workflow.runs import key_differences
             try:
                 differ = key_differences(csv.with_suffix(".json").read_text(),
                                          kept_vi_settings(problem))
                 if not ref.exists():
                     differ.append("no reference record")
+                if "family" not in pd.read_csv(csv, nrows=1).columns:
+                    differ.append("no family column")
             except (OSError, ValueError) as err:
                 differ = [f"unreadable ({type(err).__name__}: {err})"]
             if not differ:
