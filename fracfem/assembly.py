@@ -604,7 +604,7 @@ def far_field_into(A, p, t, s, quad, geometry, moments, nchunks):
     """Add the far field of every separated pair (without c_{2,s}) to A in place:
     the off-diagonal part symmetrised, the diagonal blocks from the per-element sums
     (:func:`fracfem._kernels.far_pairs`).  A must hold nothing else yet: A + Aᵀ is
-    taken in place.  Returns the rules (qx, qw, lam, offsets)."""
+    taken in place."""
     orders = quad.far_orders
     area2, cent, diam = geometry
     area, mom, grad = moments
